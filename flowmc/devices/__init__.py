@@ -1,0 +1,1 @@
+"""Motion-card devices: one interface, the simulated card by default, GRBL and LinuxCNC behind it."""

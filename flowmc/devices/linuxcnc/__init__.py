@@ -1,0 +1,1 @@
+"""LinuxCNC: its interpreter (rs274) as a reference, and a LinuxCNC machine as a device."""

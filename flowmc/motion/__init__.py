@@ -1,0 +1,1 @@
+"""Motion algorithms and the values that flow on wires; numpy/scipy only, no graph knowledge."""

@@ -1,0 +1,693 @@
+"""The Path value: an ordered list of geometric segments, each with its feed and tool state.
+
+Every path source (segment table, G-code, NURBS, image contours) produces a Path and every planner
+or interpolator consumes one. Segments are immutable; transforms return new ones. Arc length ``s``
+runs from 0 at a segment's start to ``segment.length`` at its end, and every geometric method is
+vectorised over ``s``.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from flowmc.errors import PathError
+from flowmc.motion.values import array_digest, frozen_array
+
+__all__ = [
+    "Segment",
+    "Line",
+    "Arc",
+    "EllipseArc",
+    "NurbsCurve",
+    "Dwell",
+    "Path",
+    "PLANES",
+    "chord_count",
+]
+
+#: Arc planes by their normal axis index, as G17/G18/G19 name them. Plane coordinates (u, v) are
+#: ordered so that ccw in (u, v) is a right-handed turn about the normal axis (RS274/NGC's rule).
+PLANES = {2: ("XY", (0, 1)), 1: ("XZ", (2, 0)), 0: ("YZ", (1, 2))}
+
+_RADIUS_TOL = 1e-4  # mm: how far start and end radii of an arc may differ (RS274 uses a similar bound)
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape == (2,):
+        arr = np.append(arr, 0.0)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise PathError(f"{name} must be 2 or 3 finite numbers, got {value!r}")
+    return frozen_array(arr)
+
+
+def chord_count(length: float, min_radius: float, tol: float) -> int:
+    """Chords needed so none deviates more than ``tol`` from a curve of the given min radius."""
+    if not math.isfinite(min_radius) or min_radius <= tol:
+        step = max(math.sqrt(8.0 * min(min_radius, tol) * tol), 1e-6) if min_radius > 0 else length
+    else:
+        step = 2.0 * math.sqrt(2.0 * min_radius * tol - tol * tol)
+    return max(1, math.ceil(length / max(step, 1e-12)))
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class Segment:
+    """Fields every segment carries: feed, rapid flag and the tool state at its start.
+
+    ``spindle`` is signed rpm (+ clockwise/M3, - counter-clockwise/M4, 0 off); ``outputs`` and
+    ``analog`` are ``(channel, value)`` changes applied as the segment starts; ``source`` says where
+    the segment came from (``"part.ngc:12"``, ``"row 3"``) for error messages.
+    """
+
+    feed: float = 100.0
+    rapid: bool = False
+    tool_down: bool = True
+    spindle: float = 0.0
+    outputs: tuple[tuple[int, bool], ...] = ()
+    analog: tuple[tuple[int, float], ...] = ()
+    source: str = ""
+
+    kind = "segment"
+
+    def _meta(self) -> tuple:
+        return (self.kind, self.feed, self.rapid, self.tool_down, self.spindle, self.outputs, self.analog)
+
+    def with_state(self, **changes) -> "Segment":
+        """A copy with feed/tool-state fields changed (geometry, and its cached values, shared)."""
+        unknown = set(changes) - set(_STATE_FIELDS)
+        if unknown:
+            raise TypeError(f"not a segment state field: {sorted(unknown)}")
+        new = copy.copy(self)
+        for key, value in changes.items():
+            object.__setattr__(new, key, value)
+        return new
+
+    # Geometry every kind provides -------------------------------------------------------------
+    start: np.ndarray = field(init=False, repr=False)
+    end: np.ndarray = field(init=False, repr=False)
+
+    @property
+    def length(self) -> float:
+        raise NotImplementedError
+
+    def point_at(self, s) -> np.ndarray:
+        raise NotImplementedError
+
+    def tangent_at(self, s) -> np.ndarray:
+        raise NotImplementedError
+
+    def sample(self, tol: float) -> np.ndarray:
+        raise NotImplementedError
+
+    def transformed(self, matrix: np.ndarray, offset: np.ndarray) -> "Segment":
+        raise NotImplementedError
+
+    def digest_parts(self) -> tuple:
+        raise NotImplementedError
+
+    def describe(self) -> dict:
+        return {"kind": self.kind, "start": self.start.round(6).tolist(), "end": self.end.round(6).tolist(),
+                "length": round(self.length, 6), "feed": self.feed, "rapid": self.rapid}
+
+
+def _clip_s(seg: Segment, s) -> np.ndarray:
+    return np.clip(np.asarray(s, dtype=float), 0.0, seg.length)
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class Line(Segment):
+    """A straight 3D move."""
+
+    kind = "line"
+
+    def __init__(self, start, end, **state):
+        object.__setattr__(self, "start", _vec3(start, "line start"))
+        object.__setattr__(self, "end", _vec3(end, "line end"))
+        for key, value in {**_defaults(), **state}.items():
+            object.__setattr__(self, key, value)
+
+    @cached_property
+    def length(self) -> float:
+        return float(np.linalg.norm(self.end - self.start))
+
+    def point_at(self, s) -> np.ndarray:
+        s = _clip_s(self, s)
+        if self.length == 0.0:
+            return np.broadcast_to(self.start, np.shape(s) + (3,)).copy()
+        return self.start + np.multiply.outer(s / self.length, self.end - self.start)
+
+    def tangent_at(self, s) -> np.ndarray:
+        d = self.end - self.start
+        unit = d / self.length if self.length > 0 else d
+        return np.broadcast_to(unit, np.shape(np.asarray(s)) + (3,)).copy()
+
+    def sample(self, tol: float) -> np.ndarray:
+        return np.vstack([self.start, self.end])
+
+    def transformed(self, matrix, offset) -> "Line":
+        return Line(matrix @ self.start + offset, matrix @ self.end + offset, **_state(self))
+
+    def digest_parts(self) -> tuple:
+        return (*self._meta(), self.start, self.end)
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class Arc(Segment):
+    """A circular arc in the plane normal to ``normal_axis`` (2: XY/G17, 1: XZ/G18, 0: YZ/G19).
+
+    ``ccw`` is the turn direction seen from the positive normal axis. The normal coordinate may
+    change linearly along the arc: then it is a helix. ``turns`` adds full turns (RS274's P word);
+    a full circle has ``start == end`` in the plane.
+    """
+
+    center: np.ndarray = field(init=False)
+    normal_axis: int = 2
+    ccw: bool = True
+    turns: int = 0
+
+    kind = "arc"
+
+    def __init__(self, start, end, center, normal_axis: int = 2, ccw: bool = True, turns: int = 0, **state):
+        if normal_axis not in PLANES:
+            raise PathError(f"arc normal axis must be 0, 1 or 2, got {normal_axis!r}", where=state.get("source"))
+        if int(turns) < 0:
+            raise PathError(f"arc extra turns must be >= 0, got {turns}", where=state.get("source"))
+        object.__setattr__(self, "start", _vec3(start, "arc start"))
+        object.__setattr__(self, "end", _vec3(end, "arc end"))
+        center = _vec3(center, "arc centre").copy()
+        center[normal_axis] = self.start[normal_axis]
+        center.setflags(write=False)
+        object.__setattr__(self, "center", center)
+        object.__setattr__(self, "normal_axis", int(normal_axis))
+        object.__setattr__(self, "ccw", bool(ccw))
+        object.__setattr__(self, "turns", int(turns))
+        for key, value in {**_defaults(), **state}.items():
+            object.__setattr__(self, key, value)
+        r0, r1 = self._radii()
+        if r0 <= 0:
+            raise PathError("arc radius is zero (start point is the centre)", where=self.source or None)
+        if abs(r0 - r1) > max(_RADIUS_TOL, 1e-9 * r0):
+            raise PathError(
+                f"arc end is not on the circle: start radius {r0:.6f} mm, end radius {r1:.6f} mm",
+                where=self.source or None,
+            )
+
+    @property
+    def plane(self) -> str:
+        return PLANES[self.normal_axis][0]
+
+    def _uv(self, p: np.ndarray) -> np.ndarray:
+        iu, iv = PLANES[self.normal_axis][1]
+        return np.stack([p[..., iu] - self.center[iu], p[..., iv] - self.center[iv]], axis=-1)
+
+    def _radii(self) -> tuple[float, float]:
+        return float(np.linalg.norm(self._uv(self.start))), float(np.linalg.norm(self._uv(self.end)))
+
+    @cached_property
+    def radius(self) -> float:
+        return self._radii()[0]
+
+    @cached_property
+    def start_angle(self) -> float:
+        u, v = self._uv(self.start)
+        return math.atan2(v, u)
+
+    @cached_property
+    def sweep(self) -> float:
+        """Signed swept angle in radians (positive ccw), full turns included."""
+        u0, v0 = self._uv(self.start)
+        u1, v1 = self._uv(self.end)
+        delta = math.atan2(v1, u1) - math.atan2(v0, u0)
+        two_pi = 2.0 * math.pi
+        if self.ccw:
+            delta %= two_pi
+            if delta < 1e-12:
+                delta = two_pi
+        else:
+            delta = -((-delta) % two_pi)
+            if delta > -1e-12:
+                delta = -two_pi
+        return delta + (two_pi if self.ccw else -two_pi) * self.turns
+
+    @cached_property
+    def rise(self) -> float:
+        """Change of the normal coordinate along the arc (non-zero for a helix)."""
+        return float(self.end[self.normal_axis] - self.start[self.normal_axis])
+
+    @cached_property
+    def length(self) -> float:
+        return math.hypot(self.radius * abs(self.sweep), self.rise)
+
+    def _theta(self, s) -> np.ndarray:
+        return self.start_angle + _clip_s(self, s) / self.length * self.sweep
+
+    def point_at(self, s) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        theta = self._theta(s)
+        iu, iv = PLANES[self.normal_axis][1]
+        out = np.empty(np.shape(s) + (3,))
+        out[..., iu] = self.center[iu] + self.radius * np.cos(theta)
+        out[..., iv] = self.center[iv] + self.radius * np.sin(theta)
+        out[..., self.normal_axis] = self.start[self.normal_axis] + _clip_s(self, s) / self.length * self.rise
+        return out
+
+    def tangent_at(self, s) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        theta = self._theta(s)
+        iu, iv = PLANES[self.normal_axis][1]
+        w = self.sweep * self.radius
+        out = np.empty(np.shape(s) + (3,))
+        out[..., iu] = -np.sin(theta) * w
+        out[..., iv] = np.cos(theta) * w
+        out[..., self.normal_axis] = self.rise
+        return out / self.length
+
+    def sample(self, tol: float) -> np.ndarray:
+        n = chord_count(self.radius * abs(self.sweep), self.radius, tol)
+        return self.point_at(np.linspace(0.0, self.length, n + 1))
+
+    def transformed(self, matrix, offset) -> "Arc":
+        matrix = np.asarray(matrix, dtype=float)
+        iu, iv = PLANES[self.normal_axis][1]
+        eu, ev = np.eye(3)[iu], np.eye(3)[iv]
+        mu, mv = matrix @ eu, matrix @ ev
+        scale = np.linalg.norm(mu)
+        if scale == 0 or abs(np.linalg.norm(mv) - scale) > 1e-9 * scale or abs(mu @ mv) > 1e-9 * scale**2:
+            raise PathError("a non-uniform scale would turn this arc into an ellipse", where=self.source or None)
+        omega = np.sign(np.linalg.det(matrix)) * (matrix @ np.eye(3)[self.normal_axis]) / scale
+        axis = int(np.argmax(np.abs(omega)))
+        if abs(abs(omega[axis]) - 1.0) > 1e-9:
+            raise PathError("this transform would tip the arc out of the XY, XZ or YZ plane", where=self.source or None)
+        return Arc(matrix @ self.start + offset, matrix @ self.end + offset, matrix @ self.center + offset,
+                   normal_axis=axis, ccw=(omega[axis] > 0) == self.ccw, turns=self.turns, **_state(self))
+
+    def digest_parts(self) -> tuple:
+        return (*self._meta(), self.start, self.end, self.center, self.normal_axis, self.ccw, self.turns)
+
+    def describe(self) -> dict:
+        return {**super().describe(), "center": self.center.round(6).tolist(), "plane": self.plane,
+                "ccw": self.ccw, "radius": round(self.radius, 6), "sweep_deg": round(math.degrees(self.sweep), 6)}
+
+
+class _TabulatedCurve:
+    """Arc-length parameterisation by a dense table, for curves without a closed form (ellipse, NURBS)."""
+
+    _TABLE = 2049
+
+    def _param_range(self) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def _eval(self, t: np.ndarray, nderiv: int) -> np.ndarray:
+        """Points (nderiv=0) or first derivatives (nderiv=1) at parameters t, shape (len(t), 3)."""
+        raise NotImplementedError
+
+    @cached_property
+    def _table(self) -> tuple[np.ndarray, np.ndarray]:
+        t0, t1 = self._param_range()
+        t = np.linspace(t0, t1, self._TABLE)
+        speed = np.linalg.norm(self._eval(t, 1), axis=1)
+        # Simpson's rule on each table interval, accumulated.
+        mid = np.linalg.norm(self._eval(0.5 * (t[1:] + t[:-1]), 1), axis=1)
+        ds = (speed[1:] + 4.0 * mid + speed[:-1]) / 6.0 * np.diff(t)
+        return t, np.concatenate([[0.0], np.cumsum(ds)])
+
+    @property
+    def length(self) -> float:
+        return float(self._table[1][-1])
+
+    def param_at(self, s) -> np.ndarray:
+        """Curve parameter at arc length s: table lookup plus one Newton step."""
+        t_tab, s_tab = self._table
+        s = np.clip(np.asarray(s, dtype=float), 0.0, s_tab[-1])
+        t = np.interp(s, s_tab, t_tab)
+        seg = np.clip(np.searchsorted(s_tab, s) - 1, 0, len(s_tab) - 2)
+        t_left = t_tab[seg]
+        mid = 0.5 * (t_left + t)
+        speed_left = np.linalg.norm(self._eval(np.atleast_1d(t_left), 1), axis=1)
+        speed_mid = np.linalg.norm(self._eval(np.atleast_1d(mid), 1), axis=1)
+        speed_t = np.linalg.norm(self._eval(np.atleast_1d(t), 1), axis=1)
+        partial = (speed_left + 4.0 * speed_mid + speed_t) / 6.0 * (np.atleast_1d(t) - t_left)
+        err = s_tab[seg] + partial - np.atleast_1d(s)
+        t_new = np.atleast_1d(t) - err / np.maximum(speed_t, 1e-12)
+        t0, t1 = self._param_range()
+        return np.clip(t_new, min(t0, t1), max(t0, t1)).reshape(np.shape(s))
+
+    def point_at(self, s) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        return self._eval(np.atleast_1d(self.param_at(s)), 0).reshape(np.shape(s) + (3,))
+
+    def tangent_at(self, s) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        d = self._eval(np.atleast_1d(self.param_at(s)), 1)
+        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+        return d.reshape(np.shape(s) + (3,))
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class EllipseArc(_TabulatedCurve, Segment):
+    """An elliptical arc ``center + U cos t + V sin t`` for t from ``t0`` to ``t1`` (t1 < t0 runs clockwise).
+
+    U and V are the semi-axis vectors (perpendicular for an ordinary ellipse); any affine transform
+    maps them to another ellipse, so transforms stay exact.
+    """
+
+    center: np.ndarray = field(init=False)
+    u_axis: np.ndarray = field(init=False)
+    v_axis: np.ndarray = field(init=False)
+    t0: float = 0.0
+    t1: float = 0.0
+
+    kind = "ellipse"
+
+    def __init__(self, center, u_axis, v_axis, t0: float, t1: float, **state):
+        object.__setattr__(self, "center", _vec3(center, "ellipse centre"))
+        object.__setattr__(self, "u_axis", _vec3(u_axis, "ellipse U axis"))
+        object.__setattr__(self, "v_axis", _vec3(v_axis, "ellipse V axis"))
+        object.__setattr__(self, "t0", float(t0))
+        object.__setattr__(self, "t1", float(t1))
+        for key, value in {**_defaults(), **state}.items():
+            object.__setattr__(self, key, value)
+        if np.linalg.norm(np.cross(self.u_axis, self.v_axis)) == 0.0:
+            raise PathError("ellipse semi-axes must be non-zero and not parallel", where=self.source or None)
+        if self.t0 == self.t1:
+            raise PathError("ellipse arc sweeps no angle (start angle equals end angle)", where=self.source or None)
+        object.__setattr__(self, "start", frozen_array(self._eval(np.array([self.t0]), 0)[0]))
+        object.__setattr__(self, "end", frozen_array(self._eval(np.array([self.t1]), 0)[0]))
+
+    @classmethod
+    def from_axes(cls, center, a: float, b: float, rotation: float, t0: float, t1: float, **state) -> "EllipseArc":
+        """An XY ellipse with semi-axes a, b, its a-axis turned ``rotation`` radians from X."""
+        if a <= 0 or b <= 0:
+            raise PathError(f"ellipse semi-axes must be > 0, got a={a}, b={b}", where=state.get("source"))
+        c, s = math.cos(rotation), math.sin(rotation)
+        return cls(center, (a * c, a * s, 0.0), (-b * s, b * c, 0.0), t0, t1, **state)
+
+    def _param_range(self):
+        return self.t0, self.t1
+
+    def _eval(self, t, nderiv):
+        c, s = np.cos(t)[:, None], np.sin(t)[:, None]
+        if nderiv == 0:
+            return self.center + c * self.u_axis + s * self.v_axis
+        return -s * self.u_axis + c * self.v_axis
+
+    @cached_property
+    def min_radius(self) -> float:
+        a, b = np.linalg.norm(self.u_axis), np.linalg.norm(self.v_axis)
+        lo, hi = min(a, b), max(a, b)
+        return lo * lo / hi
+
+    def sample(self, tol: float) -> np.ndarray:
+        n = chord_count(self.length, self.min_radius, tol)
+        return self.point_at(np.linspace(0.0, self.length, n + 1))
+
+    def transformed(self, matrix, offset) -> "EllipseArc":
+        return EllipseArc(matrix @ self.center + offset, matrix @ self.u_axis, matrix @ self.v_axis,
+                          self.t0, self.t1, **_state(self))
+
+    def digest_parts(self) -> tuple:
+        return (*self._meta(), self.center, self.u_axis, self.v_axis, self.t0, self.t1)
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class NurbsCurve(_TabulatedCurve, Segment):
+    """A NURBS curve: control points (n, 3), weights (n,), knots (n + degree + 1,), degree."""
+
+    control_points: np.ndarray = field(init=False)
+    weights: np.ndarray = field(init=False)
+    knots: np.ndarray = field(init=False)
+    degree: int = 3
+
+    kind = "nurbs"
+
+    def __init__(self, control_points, weights=None, knots=None, degree: int = 3, **state):
+        from flowmc.motion import nurbs
+
+        ctrl = np.asarray(control_points, dtype=float)
+        if ctrl.ndim != 2 or ctrl.shape[1] not in (2, 3):
+            raise PathError(f"NURBS control points must be a list of [x, y] or [x, y, z], got shape {ctrl.shape}",
+                            where=state.get("source"))
+        if ctrl.shape[1] == 2:
+            ctrl = np.column_stack([ctrl, np.zeros(len(ctrl))])
+        w = np.ones(len(ctrl)) if weights is None else np.asarray(weights, dtype=float)
+        k = nurbs.clamped_uniform_knots(len(ctrl), degree) if knots is None else np.asarray(knots, dtype=float)
+        nurbs.check_nurbs(ctrl, w, k, degree)
+        object.__setattr__(self, "control_points", frozen_array(ctrl))
+        object.__setattr__(self, "weights", frozen_array(w))
+        object.__setattr__(self, "knots", frozen_array(k))
+        object.__setattr__(self, "degree", int(degree))
+        for key, value in {**_defaults(), **state}.items():
+            object.__setattr__(self, key, value)
+        ends = self._eval(np.array([k[degree], k[-degree - 1]]), 0)
+        object.__setattr__(self, "start", frozen_array(ends[0]))
+        object.__setattr__(self, "end", frozen_array(ends[1]))
+
+    def _param_range(self):
+        return float(self.knots[self.degree]), float(self.knots[-self.degree - 1])
+
+    def _eval(self, t, nderiv):
+        from flowmc.motion import nurbs
+
+        return nurbs.evaluate(self.control_points, self.weights, self.knots, self.degree, t, nderiv=nderiv)[nderiv]
+
+    @cached_property
+    def min_radius(self) -> float:
+        from flowmc.motion import nurbs
+
+        t_tab, _ = self._table
+        kappa = nurbs.curvature(self.control_points, self.weights, self.knots, self.degree, t_tab)
+        return float(1.0 / max(np.max(kappa), 1e-12))
+
+    def sample(self, tol: float) -> np.ndarray:
+        n = chord_count(self.length, self.min_radius, tol)
+        return self.point_at(np.linspace(0.0, self.length, n + 1))
+
+    def transformed(self, matrix, offset) -> "NurbsCurve":
+        ctrl = self.control_points @ np.asarray(matrix, dtype=float).T + offset
+        return NurbsCurve(ctrl, self.weights, self.knots, self.degree, **_state(self))
+
+    def digest_parts(self) -> tuple:
+        return (*self._meta(), self.control_points, self.weights, self.knots, self.degree)
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class Dwell(Segment):
+    """A pause at a point (G4): no motion for ``seconds``."""
+
+    seconds: float = 0.0
+
+    kind = "dwell"
+
+    def __init__(self, point, seconds: float, **state):
+        p = _vec3(point, "dwell point")
+        if not seconds >= 0:
+            raise PathError(f"dwell time must be >= 0 s, got {seconds}", where=state.get("source"))
+        object.__setattr__(self, "start", p)
+        object.__setattr__(self, "end", p)
+        object.__setattr__(self, "seconds", float(seconds))
+        for key, value in {**_defaults(), **state}.items():
+            object.__setattr__(self, key, value)
+
+    length = 0.0
+
+    def point_at(self, s) -> np.ndarray:
+        return np.broadcast_to(self.start, np.shape(np.asarray(s)) + (3,)).copy()
+
+    def tangent_at(self, s) -> np.ndarray:
+        return np.zeros(np.shape(np.asarray(s)) + (3,))
+
+    def sample(self, tol: float) -> np.ndarray:
+        return self.start[None, :].copy()
+
+    def transformed(self, matrix, offset) -> "Dwell":
+        return Dwell(matrix @ self.start + offset, self.seconds, **_state(self))
+
+    def digest_parts(self) -> tuple:
+        return (*self._meta(), self.start, self.seconds)
+
+    def describe(self) -> dict:
+        return {**super().describe(), "seconds": self.seconds}
+
+
+_STATE_FIELDS = ("feed", "rapid", "tool_down", "spindle", "outputs", "analog", "source")
+
+
+def _defaults() -> dict:
+    return {"feed": 100.0, "rapid": False, "tool_down": True, "spindle": 0.0, "outputs": (), "analog": (), "source": ""}
+
+
+def _state(seg: Segment) -> dict:
+    return {name: getattr(seg, name) for name in _STATE_FIELDS}
+
+
+def _rotation_z(degrees: float) -> np.ndarray:
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True, eq=False)
+class Path:
+    """An ordered, immutable list of segments. Consecutive segments should join end to start."""
+
+    segments: tuple[Segment, ...] = ()
+
+    def __init__(self, segments: Iterable[Segment] = ()):
+        segs = tuple(segments)
+        for i, seg in enumerate(segs):
+            if not isinstance(seg, Segment):
+                raise PathError(f"segment {i} is a {type(seg).__name__}, not a path segment")
+        object.__setattr__(self, "segments", segs)
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    def __iter__(self):
+        return iter(self.segments)
+
+    def __getitem__(self, i):
+        return self.segments[i]
+
+    @property
+    def start(self) -> np.ndarray:
+        if not self.segments:
+            raise PathError("the path is empty")
+        return self.segments[0].start
+
+    @property
+    def end(self) -> np.ndarray:
+        if not self.segments:
+            raise PathError("the path is empty")
+        return self.segments[-1].end
+
+    @cached_property
+    def lengths(self) -> np.ndarray:
+        return frozen_array([seg.length for seg in self.segments])
+
+    @property
+    def length(self) -> float:
+        return float(self.lengths.sum())
+
+    def gaps(self, tol: float = 1e-6) -> list[int]:
+        """Indices i where segment i does not start at the end of segment i-1."""
+        return [i for i in range(1, len(self.segments))
+                if np.linalg.norm(self.segments[i].start - self.segments[i - 1].end) > tol]
+
+    def sample(self, tol: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+        """Points along the whole path with chord error <= tol, and the segment index of each point.
+
+        The first point is the path's start; every later point belongs to the segment it ends. A
+        segment's first point is dropped only where it repeats the previous segment's last point.
+        """
+        if not self.segments:
+            return np.zeros((0, 3)), np.zeros(0, dtype=int)
+        chunks, index = [], []
+        last = None
+        for i, seg in enumerate(self.segments):
+            pts = seg.sample(tol)
+            if last is not None and np.allclose(pts[0], last, rtol=0.0, atol=1e-9):
+                pts = pts[1:]
+            if len(pts):
+                last = pts[-1]
+            chunks.append(pts)
+            index.append(np.full(len(pts), i, dtype=int))
+        return np.vstack(chunks), np.concatenate(index)
+
+    def bbox(self, tol: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+        """(min corner, max corner) of the path, exact to ``tol``."""
+        pts, _ = self.sample(tol)
+        if len(pts) == 0:
+            raise PathError("the path is empty")
+        return pts.min(axis=0), pts.max(axis=0)
+
+    # Transforms ------------------------------------------------------------------------------
+    def transformed(self, matrix, offset=(0.0, 0.0, 0.0)) -> "Path":
+        """Apply ``p -> matrix @ p + offset`` to every segment."""
+        m = np.asarray(matrix, dtype=float)
+        o = np.asarray(offset, dtype=float)
+        return Path(seg.transformed(m, o) for seg in self.segments)
+
+    def translated(self, offset) -> "Path":
+        return self.transformed(np.eye(3), _vec3(offset, "offset"))
+
+    def rotated(self, degrees: float, about=(0.0, 0.0, 0.0)) -> "Path":
+        """Rotate about the Z axis through ``about`` (degrees, counter-clockwise)."""
+        r = _rotation_z(degrees)
+        c = _vec3(about, "rotation centre")
+        return self.transformed(r, c - r @ c)
+
+    def scaled(self, factor, about=(0.0, 0.0, 0.0)) -> "Path":
+        """Scale about ``about`` by a number or per-axis factors (arcs need equal factors in their plane)."""
+        f = np.broadcast_to(np.asarray(factor, dtype=float), (3,))
+        if np.any(f == 0):
+            raise PathError(f"scale factor must be non-zero, got {factor!r}")
+        c = _vec3(about, "scale centre")
+        m = np.diag(f)
+        return self.transformed(m, c - m @ c)
+
+    def mirrored(self, axis: str, about: float = 0.0) -> "Path":
+        """Mirror across the plane ``axis = about`` (axis 'X', 'Y' or 'Z')."""
+        k = "XYZ".find(axis.upper())
+        if k < 0 or len(axis) != 1:
+            raise PathError(f"mirror axis must be X, Y or Z, got {axis!r}")
+        m = np.eye(3)
+        m[k, k] = -1.0
+        o = np.zeros(3)
+        o[k] = 2.0 * about
+        return self.transformed(m, o)
+
+    def concat(self, other: "Path", rapid_feed: float | None = None) -> "Path":
+        """This path, then a rapid (tool up) to the other's start if they do not meet, then the other."""
+        if not self.segments:
+            return other
+        if not other.segments:
+            return self
+        link = []
+        if np.linalg.norm(other.start - self.end) > 1e-9:
+            first = other.segments[0]
+            link.append(Line(self.end, other.start, feed=rapid_feed or first.feed, rapid=True, tool_down=False,
+                             spindle=first.spindle, source="join"))
+        return Path(self.segments + tuple(link) + other.segments)
+
+    def with_feed(self, feed: float) -> "Path":
+        """Every non-rapid segment at the given feed (mm/s)."""
+        if not feed > 0:
+            raise PathError(f"feed must be > 0 mm/s, got {feed}")
+        return Path(seg if seg.rapid else seg.with_state(feed=float(feed)) for seg in self.segments)
+
+    # Runtime protocol ------------------------------------------------------------------------
+    @cached_property
+    def _digest(self) -> str:
+        parts = []
+        for seg in self.segments:
+            parts.extend(seg.digest_parts())
+        return array_digest("Path", len(self.segments), *parts)
+
+    def digest(self) -> str:
+        return self._digest
+
+    def summary(self) -> dict:
+        out: dict = {"type": "Path", "segments": len(self.segments), "length_mm": round(self.length, 6)}
+        if self.segments:
+            lo, hi = self.bbox()
+            out.update(start=self.start.round(6).tolist(), end=self.end.round(6).tolist(),
+                       bbox_min=lo.round(4).tolist(), bbox_max=hi.round(4).tolist(),
+                       kinds={k: sum(s.kind == k for s in self.segments)
+                              for k in sorted({s.kind for s in self.segments})})
+        return out
+
+    @staticmethod
+    def polyline(points: Sequence, feed: float = 100.0, **state) -> "Path":
+        """Lines through the given points (2D or 3D)."""
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim != 2 or len(pts) < 2 or pts.shape[1] not in (2, 3):
+            raise PathError(f"a polyline needs at least two 2D or 3D points, got shape {pts.shape}")
+        if pts.shape[1] == 2:
+            pts = np.column_stack([pts, np.zeros(len(pts))])
+        return Path(Line(a, b, feed=feed, source=state.pop("source", f"point {i + 1}"), **state)
+                    for i, (a, b) in enumerate(zip(pts[:-1], pts[1:])))

@@ -1,0 +1,188 @@
+"""What a planner or interpolator hands to a device: setpoints in time, step streams, and I/O signals."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from flowmc.motion.values import array_digest, frozen_array
+
+__all__ = ["Signal", "Trajectory", "Steps", "SIGNAL_KINDS"]
+
+#: Kinds of signal event: digital output bit, PWM frequency (Hz) and duty (%), DA volts, spindle rpm.
+SIGNAL_KINDS = ("dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm")
+
+
+@dataclass(frozen=True, eq=False)
+class Signal:
+    """Digital, PWM and analog events over time, sorted by time: at ``t[i]`` set ``kind[i]``/``channel[i]`` to ``value[i]``."""
+
+    t: np.ndarray
+    kind: np.ndarray
+    channel: np.ndarray
+    value: np.ndarray
+
+    def __init__(self, t=(), kind=(), channel=(), value=()):
+        t = np.asarray(t, dtype=float).reshape(-1)
+        order = np.argsort(t, kind="stable")
+        kinds = np.asarray(kind, dtype="U12").reshape(-1)
+        unknown = sorted(set(kinds.tolist()) - set(SIGNAL_KINDS))
+        if unknown:
+            raise ValueError(f"unknown signal kind(s) {unknown}; known: {SIGNAL_KINDS}")
+        object.__setattr__(self, "t", frozen_array(t[order]))
+        object.__setattr__(self, "kind", frozen_array(kinds[order], dtype="U12"))
+        object.__setattr__(self, "channel", frozen_array(np.asarray(channel, dtype=int).reshape(-1)[order], dtype=int))
+        object.__setattr__(self, "value", frozen_array(np.asarray(value, dtype=float).reshape(-1)[order]))
+        if not (len(self.t) == len(self.kind) == len(self.channel) == len(self.value)):
+            raise ValueError("signal columns must have equal length")
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def merged(self, other: "Signal") -> "Signal":
+        return Signal(
+            np.concatenate([self.t, other.t]),
+            np.concatenate([self.kind, other.kind]),
+            np.concatenate([self.channel, other.channel]),
+            np.concatenate([self.value, other.value]),
+        )
+
+    def shifted(self, dt: float) -> "Signal":
+        return Signal(self.t + dt, self.kind, self.channel, self.value)
+
+    def digest(self) -> str:
+        return array_digest("Signal", self.t, self.kind, self.channel, self.value)
+
+    def summary(self) -> dict:
+        return {"type": "Signal", "events": len(self), "kinds": sorted(set(self.kind.tolist()))}
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Setpoints at period T: row k is the commanded position at t = k*T (row 0 is the start).
+
+    ``segment[k]`` is the index of the path segment that row k belongs to, so a device or a
+    pre-flight check can name the segment of any sample.
+    """
+
+    positions: np.ndarray
+    period: float
+    segment: np.ndarray
+    axes: tuple[str, ...] = ("X", "Y", "Z")
+    signals: Signal = field(default_factory=Signal)
+
+    def __init__(self, positions, period: float, segment=None, axes=("X", "Y", "Z"), signals: Signal | None = None):
+        pos = frozen_array(positions, ndim=2)
+        if pos.shape[1] != len(axes):
+            raise ValueError(f"positions have {pos.shape[1]} columns but {len(axes)} axes {tuple(axes)}")
+        if not period > 0:
+            raise ValueError("period must be > 0")
+        seg = np.zeros(len(pos), dtype=int) if segment is None else np.asarray(segment, dtype=int)
+        if seg.shape != (len(pos),):
+            raise ValueError("segment must have one entry per setpoint")
+        object.__setattr__(self, "positions", pos)
+        object.__setattr__(self, "period", float(period))
+        object.__setattr__(self, "segment", frozen_array(seg, dtype=int))
+        object.__setattr__(self, "axes", tuple(axes))
+        object.__setattr__(self, "signals", signals if signals is not None else Signal())
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    @property
+    def duration(self) -> float:
+        """Cycle time: N*T to the last setpoint (the reference README's definition)."""
+        return (len(self.positions) - 1) * self.period
+
+    @property
+    def times(self) -> np.ndarray:
+        return np.arange(len(self.positions)) * self.period
+
+    def derivatives(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sampled velocity, acceleration and jerk per axis by finite differences (reference README)."""
+        v = np.diff(self.positions, axis=0) / self.period
+        a = np.diff(v, axis=0) / self.period
+        j = np.diff(a, axis=0) / self.period
+        return v, a, j
+
+    def speed(self) -> np.ndarray:
+        """Path speed |v| per interval (N-1 values)."""
+        return np.linalg.norm(np.diff(self.positions, axis=0), axis=1) / self.period
+
+    def digest(self) -> str:
+        return array_digest("Trajectory", self.positions, self.period, self.segment, self.axes, self.signals.digest())
+
+    def summary(self) -> dict:
+        v = self.speed() if len(self) > 1 else np.zeros(1)
+        return {
+            "type": "Trajectory",
+            "samples": len(self),
+            "period_s": self.period,
+            "duration_s": round(self.duration, 6),
+            "start": self.positions[0].round(6).tolist() if len(self) else [],
+            "end": self.positions[-1].round(6).tolist() if len(self) else [],
+            "peak_speed_mm_s": round(float(v.max()), 6),
+            "signal_events": len(self.signals),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Steps:
+    """Per-axis step streams: row k holds each axis's step (-1, 0, +1) at tick k.
+
+    ``origin`` is the position (mm) before the first step and ``step_mm`` each axis's pulse
+    equivalent, so position after tick k is ``origin + cumsum(steps)[k] * step_mm``. ``tick`` is
+    the time per row in seconds, or 0 when the stream is untimed (a device paces it).
+    """
+
+    steps: np.ndarray
+    step_mm: np.ndarray
+    origin: np.ndarray
+    tick: float = 0.0
+    segment: np.ndarray | None = None
+    axes: tuple[str, ...] = ("X", "Y")
+    signals: Signal = field(default_factory=Signal)
+
+    def __init__(self, steps, step_mm, origin=None, tick: float = 0.0, segment=None, axes=("X", "Y"), signals=None):
+        st = np.asarray(steps, dtype=np.int8)
+        if st.ndim != 2 or st.shape[1] != len(axes):
+            raise ValueError(f"steps must have shape (N, {len(axes)}) for axes {tuple(axes)}, got {st.shape}")
+        if st.size and np.abs(st).max() > 1:
+            raise ValueError("a step stream holds only -1, 0 and +1")
+        n_axes = len(axes)
+        seg = np.zeros(len(st), dtype=int) if segment is None else np.asarray(segment, dtype=int)
+        object.__setattr__(self, "steps", frozen_array(st, dtype=np.int8))
+        object.__setattr__(self, "step_mm", frozen_array(np.broadcast_to(np.asarray(step_mm, float), (n_axes,))))
+        object.__setattr__(self, "origin", frozen_array(np.zeros(n_axes) if origin is None else origin))
+        object.__setattr__(self, "tick", float(tick))
+        object.__setattr__(self, "segment", frozen_array(seg, dtype=int))
+        object.__setattr__(self, "axes", tuple(axes))
+        object.__setattr__(self, "signals", signals if signals is not None else Signal())
+
+    def __len__(self) -> int:
+        return len(self.steps)
+
+    def counts(self) -> np.ndarray:
+        """Position in steps after each tick, relative to the origin, shape (N, n_axes)."""
+        return np.cumsum(self.steps, axis=0, dtype=np.int64)
+
+    def positions(self) -> np.ndarray:
+        """Position in mm after each tick, with the origin prepended as row 0."""
+        pos = self.counts() * self.step_mm + self.origin
+        return np.vstack([self.origin[None, :], pos])
+
+    def digest(self) -> str:
+        return array_digest("Steps", self.steps, self.step_mm, self.origin, self.tick, self.segment, self.axes,
+                            self.signals.digest())
+
+    def summary(self) -> dict:
+        end = self.positions()[-1]
+        return {
+            "type": "Steps",
+            "ticks": len(self),
+            "steps_per_axis": np.abs(self.steps).sum(axis=0, dtype=np.int64).tolist(),
+            "origin": self.origin.round(6).tolist(),
+            "end": end.round(6).tolist(),
+            "tick_s": self.tick,
+        }
