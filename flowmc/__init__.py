@@ -1,0 +1,66 @@
+"""flowmc: LabVIEW-style dataflow graphs for motion control.
+
+The Python API, kept light to import (no UI, no devices, nothing heavy until used)::
+
+    import flowmc
+    graph = flowmc.load("part.flowmc.json")
+    result = flowmc.run(graph, inputs={"feed": 20.0})
+    result.ok, result.outputs, result.nodes["plan"].status
+
+    g = flowmc.GraphBuilder(title="demo")
+    a = g.add("basic.number", id="a", value=2.0)
+    s = g.add("basic.add", id="s")
+    g.wire(a.value, s.a)
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+__all__ = [
+    "load",
+    "save",
+    "loads",
+    "dumps",
+    "run",
+    "validate",
+    "Graph",
+    "Runtime",
+    "RunResult",
+    "Issue",
+    "Event",
+    "GraphBuilder",
+    "FlowmcError",
+    "GraphError",
+]
+
+_LAZY = {
+    "load": "flowmc.graph",
+    "save": "flowmc.graph",
+    "loads": "flowmc.graph",
+    "dumps": "flowmc.graph",
+    "Graph": "flowmc.graph",
+    "run": "flowmc.runtime",
+    "validate": "flowmc.runtime",
+    "Runtime": "flowmc.runtime",
+    "RunResult": "flowmc.runtime",
+    "Issue": "flowmc.runtime",
+    "Event": "flowmc.runtime",
+    "GraphBuilder": "flowmc.builder",
+    "FlowmcError": "flowmc.errors",
+    "GraphError": "flowmc.errors",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'flowmc' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,324 @@
+"""The ``flowmc`` command: run graphs headless, validate them, list node types, print the schema.
+
+Exit codes: 0 success, 1 the run failed (or a tool is missing), 2 the graph or an argument is invalid.
+Every problem is one line on stderr; no tracebacks (set FLOWMC_DEBUG=1 to see them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
+
+from flowmc.errors import FlowmcError, GraphError
+
+__all__ = ["main", "build_parser"]
+
+EXIT_OK, EXIT_FAILED, EXIT_INVALID = 0, 1, 2
+
+
+class UsageError(FlowmcError):
+    """A bad command-line argument (exit 2)."""
+
+
+def _err(line: str) -> None:
+    print(line, file=sys.stderr)
+
+
+# ---------------------------------------------------------------- values from the command line
+
+def parse_value(port_type: str | None, text: str, what: str) -> Any:
+    """Turn command-line text into a value for a port type (None: any JSON, else the text)."""
+    if port_type == "Text":
+        return text
+    if port_type == "Number":
+        try:
+            value = float(text)
+        except ValueError:
+            raise UsageError(f"{what}: {text!r} is not a number") from None
+        return int(value) if value.is_integer() and "." not in text and "e" not in text.lower() else value
+    if port_type == "Bool":
+        lowered = text.strip().lower()
+        if lowered in ("true", "1", "yes", "on"):
+            return True
+        if lowered in ("false", "0", "no", "off"):
+            return False
+        raise UsageError(f"{what}: {text!r} is not true or false")
+    if port_type is not None:
+        raise UsageError(f"{what}: a {port_type} cannot be given on the command line")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def _split_assignment(item: str, option: str) -> tuple[str, str]:
+    key, sep, value = item.partition("=")
+    if not sep or not key:
+        raise UsageError(f"{option} {item!r}: expected NAME=VALUE")
+    return key.strip(), value
+
+
+def apply_sets(graph: Any, sets: list[str]) -> None:
+    """``--set NODE.PARAM=VALUE``: change stored params; unknown nodes or params are errors."""
+    from flowmc import registry
+    from flowmc.nodes import load_all
+
+    load_all()
+    for item in sets:
+        target, text = _split_assignment(item, "--set")
+        node_id, dot, param = target.partition(".")
+        what = f"--set {target}"
+        if not dot or not param:
+            raise UsageError(f"{what}: expected NODE.PARAM=VALUE")
+        node = next((n for n in graph.nodes if n.id == node_id), None)
+        if node is None:
+            raise UsageError(f"{what}: no node {node_id!r} (nodes: {', '.join(sorted(n.id for n in graph.nodes))})")
+        try:
+            cls = registry.lookup(node.type, graph.base_dir)
+        except GraphError:
+            raise UsageError(f"{what}: node {node_id!r} has unknown type {node.type!r}") from None
+        fields = cls.Params.model_fields
+        if param not in fields:
+            raise UsageError(f"{what}: node {node_id!r} ({node.type}) has no param {param!r} (params: {', '.join(fields) or 'none'})")
+        port_types = {p.name: p.types[0] for p in cls.param_ports()}
+        node.params[param] = parse_value(port_types.get(param), text, what)
+
+
+def parse_inputs(graph: Any, items: list[str]) -> dict[str, Any]:
+    declared = {i.name: i.type for i in graph.interface.inputs} if graph.interface else {}
+    values = {}
+    for item in items:
+        name, text = _split_assignment(item, "--input")
+        if name not in declared:
+            raise UsageError(f"--input {name}: the graph has no input {name!r} (inputs: {', '.join(declared) or 'none'})")
+        values[name] = parse_value(declared[name], text, f"--input {name}")
+    return values
+
+
+# ---------------------------------------------------------------- output
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def write_json_atomic(path: Path, data: Any) -> None:
+    text = json.dumps(_json_safe(data), indent=2, ensure_ascii=False) + "\n"
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise FlowmcError(f"cannot write results: {exc.strerror or exc}", where=str(path)) from None
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _progress_printer(total: int) -> Callable[[Any], None]:
+    count = 0
+
+    def show(event: Any) -> None:
+        nonlocal count
+        if event.kind in ("queued", "running"):
+            return
+        if event.kind == "log":
+            _err(f"        {event.node_id}: {event.message}")
+            return
+        count += 1
+        line = f"[{count:>{len(str(total))}}/{total}] {event.node_id:<20} {event.kind}"
+        if event.kind in ("done", "failed") and event.duration is not None:
+            line += f"  {event.duration * 1000:.1f} ms"
+        if event.message and event.kind != "log":
+            line += f"  {event.message}"
+        _err(line)
+
+    return show
+
+
+def _print_issues(where: str, issues: list) -> None:
+    _err(f"{where}: graph is invalid ({len(issues)} problem{'s' if len(issues) != 1 else ''}):")
+    for issue in issues:
+        _err(f"  {issue.message}")
+
+
+# ---------------------------------------------------------------- commands
+
+def cmd_run(args: argparse.Namespace) -> int:
+    import flowmc
+
+    graph = flowmc.load(args.file)
+    apply_sets(graph, args.set)
+    inputs = parse_inputs(graph, args.input)
+    runtime = flowmc.Runtime()
+    plan = runtime.plan(graph)
+    if plan.issues:
+        _print_issues(args.file, plan.issues)
+        return EXIT_INVALID
+    if not args.quiet:
+        runtime.subscribe(_progress_printer(len(plan.order)))
+    result = runtime.run(plan, inputs)
+    if args.out:
+        write_json_atomic(Path(args.out), {"graph": str(args.file), **result.summary()})
+    for name, value in result.outputs.items():
+        print(f"{name} = {json.dumps(_json_safe(flowmc.runtime.summarize(value)))}")
+    if not result.ok:
+        for message in result.errors:
+            _err(f"error: {message}")
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    import flowmc
+
+    graph = flowmc.load(args.file)
+    plan = flowmc.Runtime().plan(graph)
+    if plan.issues:
+        _print_issues(args.file, plan.issues)
+        return EXIT_INVALID
+    print(f"{args.file}: ok, {len(plan.order)} nodes; order: {', '.join(plan.order)}")
+    return EXIT_OK
+
+
+def _port_line(kind: str, port: dict[str, Any]) -> str:
+    types = port.get("type") or " or ".join(port["types"])
+    text = f"    {kind:<5} {port['name']}: {types}"
+    if kind != "out" and not port["required"]:
+        text += f" = {json.dumps(port['default'])}"
+    return text + (f"  ({port['doc']})" if port["doc"] else "")
+
+
+def cmd_nodes(args: argparse.Namespace) -> int:
+    from flowmc import registry
+    from flowmc.nodes import load_all
+
+    failures = load_all()
+    described = registry.describe_all(Path.cwd())
+    if args.json:
+        print(json.dumps(described, indent=2))
+    else:
+        for d in described:
+            print(f"{d['type_id']}  [{d['category']}] {d['title']}{'' if d['pure'] else '  (not cached)'}: {d['description']}")
+            for port in d["inputs"]:
+                print(_port_line("in", port))
+            for port in d["param_inputs"]:
+                print(_port_line("param", port))
+            wired = {p["name"] for p in d["param_inputs"]}
+            for name, prop in d["params_schema"].get("properties", {}).items():
+                if name not in wired:
+                    print(f"    param {name}: {prop.get('type', 'value')}" + (f" = {json.dumps(prop['default'])}" if "default" in prop else ""))
+            for port in d["outputs"]:
+                print(_port_line("out", port))
+    for module, error in failures.items():
+        _err(f"warning: node module {module} failed to load: {error}")
+    return EXIT_OK
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    from flowmc.graph import json_schema
+
+    print(json.dumps(json_schema(), indent=2))
+    return EXIT_OK
+
+
+def _delegate(module: str, function: str, what: str) -> Callable[[argparse.Namespace], int]:
+    def command(args: argparse.Namespace) -> int:
+        try:
+            target = getattr(importlib.import_module(module), function)
+        except (ImportError, AttributeError) as exc:
+            _err(f"flowmc {args.command}: {what} is not available ({module}.{function}: {exc})")
+            return EXIT_FAILED
+        code = target(args)
+        return EXIT_OK if code is None else int(code)
+
+    return command
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("run", help="run a graph headless")
+    p.add_argument("file", help="graph file (*.flowmc.json)")
+    p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a stored param")
+    p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
+    p.add_argument("--out", metavar="results.json", help="write per-node results and outputs as JSON")
+    p.add_argument("-q", "--quiet", action="store_true", help="no per-node progress on stderr")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("validate", help="check a graph without running it")
+    p.add_argument("file")
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("nodes", help="list every node type with its ports and params")
+    p.add_argument("--json", action="store_true", help="machine-readable description")
+    p.set_defaults(func=cmd_nodes)
+
+    p = sub.add_parser("schema", help="print the graph file JSON Schema")
+    p.set_defaults(func=cmd_schema)
+
+    p = sub.add_parser("serve", help="open the graph editor in the browser")
+    p.add_argument("file", nargs="?", help="graph file to open")
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=8080)
+    p.set_defaults(func=_delegate("flowmc.ui.app", "serve_main", "the editor"))
+
+    p = sub.add_parser("compare", help="compare a graph's motion with a reference implementation")
+    p.add_argument("graph")
+    p.add_argument("--with", dest="with_", choices=["linuxcnc"], default="linuxcnc",
+                   help="reference to compare with (args.with_, also getattr(args, 'with'))")
+    p.set_defaults(func=_delegate("flowmc.devices.linuxcnc.compare", "compare_main", "the LinuxCNC comparison"))
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if hasattr(args, "with_"):
+        setattr(args, "with", args.with_)
+    try:
+        return args.func(args)
+    except GraphError as exc:
+        if exc.issues:
+            _print_issues(exc.where or "graph", exc.issues)
+        else:
+            _err(f"error: {exc}")
+        return EXIT_INVALID
+    except UsageError as exc:
+        _err(f"error: {exc}")
+        return EXIT_INVALID
+    except FlowmcError as exc:
+        _err(f"error: {exc}")
+        return EXIT_FAILED
+    except BrokenPipeError:  # output piped into `head`
+        sys.stdout = open(os.devnull, "w")
+        return EXIT_OK
+    except OSError as exc:
+        _err(f"error: {exc.filename + ': ' if exc.filename else ''}{exc.strerror or exc}")
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        _err("interrupted")
+        return 130
+    except Exception as exc:  # a bug: still one line, the traceback on request
+        if os.environ.get("FLOWMC_DEBUG"):
+            raise
+        _err(f"internal error: {type(exc).__name__}: {exc} (set FLOWMC_DEBUG=1 for the traceback)")
+        return EXIT_FAILED
+
+
+if __name__ == "__main__":
+    sys.exit(main())

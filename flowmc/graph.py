@@ -1,0 +1,310 @@
+"""The graph file model (``*.flowmc.json``): one pydantic tree is the schema.
+
+Loading refuses unknown fields and schema versions, naming the file and the JSON path;
+malformed JSON is reported with line and column. Saving is canonical (fixed key order,
+nodes sorted by id, wires sorted) and atomic (temp file + ``os.replace``), so
+load -> save of a saved file is byte-identical and a crash never leaves half a file.
+
+Params are stored by name as plain JSON; they are checked against the node type's
+params model by validation (``flowmc.runtime``), not here, so a file naming a node
+type this flowmc does not know still loads and round-trips.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
+
+from flowmc.errors import GraphError
+from flowmc.migrations import SCHEMA_VERSION, migrate
+from flowmc.registry import PORT_TYPES
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "Issue",
+    "Node",
+    "Wire",
+    "InterfaceInput",
+    "InterfaceOutput",
+    "Interface",
+    "Graph",
+    "split_ref",
+    "load",
+    "loads",
+    "save",
+    "dumps",
+    "json_schema",
+]
+
+ID_PATTERN = r"^[A-Za-z_][A-Za-z0-9_-]*$"
+NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"
+REF_PATTERN = r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"
+
+PortType = Literal[PORT_TYPES]  # type: ignore[valid-type]
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One problem with a graph: a stable ``code``, a ``location`` path into the file
+    (``("nodes", "n3", "params", "feed")``) for the editor, and a message for people."""
+
+    code: str
+    location: tuple[Any, ...]
+    message: str
+
+    def __str__(self) -> str:
+        return self.message
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
+
+class Node(_Model):
+    """A node: stable id, type id, params by name, canvas position (never affects a result)."""
+
+    id: str = Field(pattern=ID_PATTERN, description="Stable node id, unique in the graph")
+    type: str = Field(min_length=1, description="Node type id, e.g. 'path.scale' or 'lib.pocket'")
+    params: dict[str, Any] = Field(default_factory=dict, description="Param values by name")
+    pos: tuple[float, float] = Field((0.0, 0.0), description="Canvas position [x, y]")
+
+
+class Wire(_Model):
+    """A wire from an output ``node.port`` to an input ``node.port`` (a data input or a scalar param)."""
+
+    from_: str = Field(alias="from", pattern=REF_PATTERN, description="Source 'node.output'")
+    to: str = Field(pattern=REF_PATTERN, description="Target 'node.input' or 'node.param'")
+
+
+class InterfaceInput(_Model):
+    """A named input of the graph, fed into internal ports when the graph is used as a node."""
+
+    name: str = Field(pattern=NAME_PATTERN)
+    type: PortType
+    description: str = ""
+    default: Any = Field(None, description="Value used when not given; null: internal ports keep their own")
+    to: list[str] = Field(min_length=1, description="Internal 'node.port' targets")
+
+
+class InterfaceOutput(_Model):
+    """A named output of the graph, taken from one internal output port."""
+
+    name: str = Field(pattern=NAME_PATTERN)
+    type: PortType
+    description: str = ""
+    from_: str = Field(alias="from", pattern=REF_PATTERN, description="Internal 'node.output' source")
+
+
+class Interface(_Model):
+    inputs: list[InterfaceInput] = Field(default_factory=list)
+    outputs: list[InterfaceOutput] = Field(default_factory=list)
+
+
+class Graph(_Model):
+    """A flowmc graph. ``path`` (not stored in the file) is where it was loaded from or saved to."""
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    title: str = ""
+    description: str = ""
+    nodes: list[Node] = Field(default_factory=list)
+    wires: list[Wire] = Field(default_factory=list)
+    interface: Interface | None = None
+
+    _path: Path | None = PrivateAttr(None)
+
+    @property
+    def path(self) -> Path | None:
+        return self._path
+
+    @path.setter
+    def path(self, value: str | os.PathLike | None) -> None:
+        self._path = None if value is None else Path(value)
+
+    @property
+    def base_dir(self) -> Path:
+        """Folder that relative file params resolve against (cwd for graphs never saved)."""
+        return self._path.parent if self._path is not None else Path.cwd()
+
+    def node(self, node_id: str) -> Node:
+        for node in self.nodes:
+            if node.id == node_id:
+                return node
+        raise GraphError(f"no node {node_id!r}", where=self.where)
+
+    @property
+    def where(self) -> str:
+        return str(self._path) if self._path is not None else "<graph>"
+
+    def fingerprint_json(self) -> str:
+        """Everything that can change a result (not title, description or positions)."""
+        return self.model_dump_json(exclude={"title": True, "description": True, "nodes": {"__all__": {"pos"}}})
+
+
+def split_ref(ref: str) -> tuple[str, str]:
+    """``"node.port"`` -> ``("node", "port")`` (node ids have no dots)."""
+    node, _, port = ref.partition(".")
+    return node, port
+
+
+# ---------------------------------------------------------------- loading
+
+def _reject_constant(name: str) -> None:
+    raise ValueError(f"{name} is not valid JSON")
+
+
+def _json_path(loc: tuple[Any, ...]) -> str:
+    out = "$"
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else f".{'from' if part == 'from_' else part}"
+    return out
+
+
+def _node_hint(raw: Any, loc: tuple[Any, ...]) -> str:
+    """' (node "n3")' when the path points inside a node that has an id."""
+    if len(loc) >= 2 and loc[0] == "nodes" and isinstance(loc[1], int) and isinstance(raw, dict):
+        nodes = raw.get("nodes")
+        if isinstance(nodes, list) and loc[1] < len(nodes) and isinstance(nodes[loc[1]], dict):
+            node_id = nodes[loc[1]].get("id")
+            if isinstance(node_id, str):
+                return f" (node {node_id!r})"
+    return ""
+
+
+def _schema_issues(exc: ValidationError, raw: Any) -> list[Issue]:
+    issues = []
+    for err in exc.errors():
+        loc = tuple(err["loc"])
+        if err["type"] == "extra_forbidden":
+            what = f"unknown field {str(loc[-1])!r}" if loc else "unknown field"
+        else:
+            what = err["msg"]
+        issues.append(Issue("schema", loc, f"{_json_path(loc)}{_node_hint(raw, loc)}: {what}"))
+    return issues
+
+
+def loads(text: str, where: str = "<string>") -> Graph:
+    """Parse graph JSON; raise GraphError (with ``issues``) naming ``where`` and the JSON path."""
+    try:
+        raw = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as exc:
+        raise GraphError(f"invalid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})",
+                         where=f"{where}:{exc.lineno}:{exc.colno}") from None
+    except ValueError as exc:
+        raise GraphError(f"invalid JSON: {exc}", where=where) from None
+    raw = migrate(raw, where)
+    try:
+        return Graph.model_validate(raw)
+    except ValidationError as exc:
+        issues = _schema_issues(exc, raw)
+        message = issues[0].message if len(issues) == 1 else f"{len(issues)} problems in the graph file"
+        raise GraphError(message, where=where, issues=issues) from None
+
+
+def load(path: str | os.PathLike) -> Graph:
+    """Load a ``*.flowmc.json`` file. Missing or unreadable files raise GraphError naming the file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise GraphError("no such graph file", where=str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise GraphError(f"cannot read graph file: {exc}", where=str(path)) from None
+    graph = loads(text, where=str(path))
+    graph.path = path
+    return graph
+
+
+# ---------------------------------------------------------------- saving
+
+def _canonical(graph: Graph) -> dict[str, Any]:
+    data = graph.model_dump(by_alias=True)  # python mode: NaN stays NaN and is refused, not turned into null
+    if data["interface"] is None:
+        del data["interface"]
+    for node in data["nodes"]:
+        node["params"] = _sorted_keys(node["params"])
+    data["nodes"].sort(key=lambda n: n["id"])
+    data["wires"].sort(key=lambda w: (w["to"], w["from"]))
+    return data
+
+
+def _sorted_keys(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _sorted_keys(value[k]) for k in sorted(value)}
+    if isinstance(value, (list, tuple)):
+        return [_sorted_keys(v) for v in value]
+    return value
+
+
+def _format(value: Any, indent: str = "") -> str:
+    """JSON with 2-space indent; short lists and objects of scalars (positions, wires) stay on one line."""
+    inner = indent + "  "
+    if isinstance(value, dict):
+        if not value:
+            return "{}"
+        if not any(isinstance(v, (dict, list, tuple)) for v in value.values()):
+            flat = "{" + ", ".join(f"{json.dumps(k, ensure_ascii=False)}: {json.dumps(v, ensure_ascii=False, allow_nan=False)}"
+                                   for k, v in value.items()) + "}"
+            if len(flat) + len(indent) <= 100:
+                return flat
+        items = [f"{inner}{json.dumps(k, ensure_ascii=False)}: {_format(v, inner)}" for k, v in value.items()]
+        return "{\n" + ",\n".join(items) + "\n" + indent + "}"
+    if isinstance(value, (list, tuple)):
+        if not value:
+            return "[]"
+        if not any(isinstance(v, (dict, list, tuple)) for v in value):
+            flat = "[" + ", ".join(json.dumps(v, ensure_ascii=False, allow_nan=False) for v in value) + "]"
+            if len(flat) + len(indent) <= 100:
+                return flat
+        return "[\n" + ",\n".join(inner + _format(v, inner) for v in value) + "\n" + indent + "]"
+    return json.dumps(value, ensure_ascii=False, allow_nan=False)
+
+
+def dumps(graph: Graph) -> str:
+    """Canonical JSON text of ``graph`` (ends with a newline)."""
+    try:
+        return _format(_canonical(graph)) + "\n"
+    except (TypeError, ValueError) as exc:  # NaN/Infinity or a non-JSON param value
+        raise GraphError(f"cannot be saved as JSON: {exc}", where=graph.where) from None
+
+
+def save(graph: Graph, path: str | os.PathLike) -> Path:
+    """Write ``graph`` canonically and atomically to ``path``; sets ``graph.path``."""
+    path = Path(path)
+    text = dumps(graph)
+    try:
+        mode = path.stat().st_mode & 0o777
+    except OSError:
+        mode = 0o644
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise GraphError(f"cannot save here: {exc.strerror or exc}", where=str(path)) from None
+    try:
+        os.fchmod(fd, mode)
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    graph.path = path
+    return path
+
+
+def json_schema() -> dict[str, Any]:
+    """JSON Schema of the graph file (what ``flowmc schema`` prints)."""
+    schema = Graph.model_json_schema(by_alias=True)
+    schema["$id"] = "https://flowmc/graph.schema.json"
+    schema["title"] = "flowmc graph file (schema_version 1)"
+    return schema

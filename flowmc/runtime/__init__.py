@@ -1,0 +1,34 @@
+"""The runtime: validate (every problem at once), schedule on networkx, execute with a cache.
+
+Public API (the CLI and the editor use only this)::
+
+    rt = Runtime()
+    plan = rt.plan(graph)          # validated + ordered, reused per graph revision
+    plan.issues, plan.order, plan.generations, plan.ports("n3")
+    unsubscribe = rt.subscribe(lambda event: ...)
+    result = rt.run(graph, inputs={"feed": 20.0})   # second call: cached nodes do not run
+"""
+
+from flowmc.graph import Issue
+from flowmc.runtime.context import NodeContext, Site, resolve_inside
+from flowmc.runtime.events import EVENT_KINDS, Event, EventBus
+from flowmc.runtime.executor import NodeResult, RunResult, Runtime, run, summarize, validate, value_matches
+from flowmc.runtime.schedule import Plan
+
+__all__ = [
+    "Runtime",
+    "RunResult",
+    "NodeResult",
+    "Plan",
+    "Issue",
+    "Event",
+    "EVENT_KINDS",
+    "EventBus",
+    "NodeContext",
+    "Site",
+    "resolve_inside",
+    "run",
+    "validate",
+    "summarize",
+    "value_matches",
+]

@@ -1,0 +1,59 @@
+"""Output cache of pure nodes, keyed by a content signature.
+
+signature = hash(type id, type version, canonical params, the digests of the values on the
+node's wired inputs). The static part is hashed once per plan; a run only adds input digests.
+One entry per node id (its last result), so memory stays bounded in a long editor session.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from typing import Any, Iterable
+
+__all__ = ["static_key", "signature", "CacheEntry", "NodeCache"]
+
+
+def static_key(type_id: str, version: int, params_json: str, extra: str = "") -> bytes:
+    """The part of a signature that depends only on the graph (computed once per plan)."""
+    text = f"{type_id}\0{version}\0{params_json}\0{extra}"
+    return hashlib.blake2b(text.encode(), digest_size=16).digest()
+
+
+def signature(static: bytes, input_digests: Iterable[tuple[str, str]]) -> bytes:
+    """Combine the static key with ``(port, digest)`` pairs of the inputs (in port order)."""
+    h = hashlib.blake2b(static, digest_size=16)
+    for port, value_digest in input_digests:
+        h.update(port.encode())
+        h.update(b"=")
+        h.update(value_digest.encode())
+        h.update(b";")
+    return h.digest()
+
+
+@dataclass(frozen=True, slots=True)
+class CacheEntry:
+    signature: bytes
+    outputs: dict[str, Any]
+    digests: dict[str, str]
+
+
+class NodeCache:
+    def __init__(self) -> None:
+        self._entries: dict[str, CacheEntry] = {}
+
+    def get(self, node_id: str, sig: bytes) -> CacheEntry | None:
+        entry = self._entries.get(node_id)
+        return entry if entry is not None and entry.signature == sig else None
+
+    def put(self, node_id: str, entry: CacheEntry) -> None:
+        self._entries[node_id] = entry
+
+    def drop(self, node_id: str) -> None:
+        self._entries.pop(node_id, None)
+
+    def clear(self) -> None:
+        self._entries.clear()
+
+    def __len__(self) -> int:
+        return len(self._entries)

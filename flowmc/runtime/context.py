@@ -1,0 +1,79 @@
+"""Where a graph lives (its folder and the root files must stay under) and what a node sees.
+
+Graph files never reach outside their folder: ``resolve_inside`` refuses absolute paths,
+``..`` that climbs out, and symlinks that point out (it resolves them first).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from flowmc.errors import GraphError
+
+__all__ = ["Site", "NodeContext", "resolve_inside"]
+
+
+def resolve_inside(root: Path, base: Path, rel: str, where: str | None = None) -> Path:
+    """``base / rel`` with symlinks resolved; GraphError unless it stays under ``root``."""
+    if not isinstance(rel, str) or not rel.strip():
+        raise GraphError("empty file name", where=where)
+    if os.path.isabs(rel) or rel.startswith("~"):
+        raise GraphError(f"{rel!r}: absolute paths are refused; use a path relative to the graph's folder", where=where)
+    target = (base / rel).resolve()
+    root_resolved = root.resolve()
+    if not target.is_relative_to(root_resolved):
+        raise GraphError(f"{rel!r} leaves the graph's folder {root_resolved}", where=where)
+    return target
+
+
+@dataclass(frozen=True)
+class Site:
+    """The folder of the graph being validated, the root its files must stay under,
+    and the chain of sub-graph files that led here (to refuse recursion)."""
+
+    graph_dir: Path
+    root: Path
+    chain: tuple[Path, ...] = ()
+
+    @classmethod
+    def for_graph(cls, graph_dir: Path, file: Path | None = None) -> "Site":
+        graph_dir = Path(graph_dir).resolve()
+        return cls(graph_dir, graph_dir, (file.resolve(),) if file is not None else ())
+
+    def name(self, path: Path) -> str:
+        """How to show ``path`` in a message: relative to the root when possible."""
+        try:
+            return str(path.relative_to(self.root))
+        except ValueError:
+            return path.name
+
+
+@dataclass
+class NodeContext:
+    """What ``run`` gets as ``ctx``: the node id, the graph folder, safe file access, logging."""
+
+    node_id: str
+    site: Site
+    _log: Callable[[str], None] = field(repr=False)
+    binding: Any = field(default=None, repr=False)  # sub-graph node types: their bound inner plan
+    _child: Callable[[], Any] | None = field(default=None, repr=False)
+
+    @property
+    def graph_dir(self) -> Path:
+        return self.site.graph_dir
+
+    def resolve(self, rel: str) -> Path:
+        """A file named in a param, relative to the graph's folder; refuses paths that leave it."""
+        return resolve_inside(self.site.root, self.site.graph_dir, rel, where=f"node {self.node_id!r}")
+
+    def log(self, message: str) -> None:
+        self._log(str(message))
+
+    def child_runtime(self) -> Any:
+        """A runtime owned by the running runtime for this node (sub-graphs keep their cache there)."""
+        if self._child is None:
+            raise RuntimeError("no child runtime outside a run")
+        return self._child()

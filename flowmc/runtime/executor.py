@@ -1,0 +1,359 @@
+"""The Runtime: plans graphs (once per revision), runs them in order, caches pure nodes.
+
+A failing node (FlowmcError or any exception) is reported by message; its downstream
+nodes are skipped; independent branches still run. Nothing here prints.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from pydantic import ValidationError
+
+from flowmc import registry
+from flowmc.digest import Undigestable, digest
+from flowmc.errors import FlowmcError, GraphError
+from flowmc.graph import Graph, Issue, load
+from flowmc.runtime.cache import CacheEntry, NodeCache, signature
+from flowmc.runtime.context import NodeContext, Site
+from flowmc.runtime.events import Event, EventBus, Listener
+from flowmc.runtime.schedule import Plan, make_plan
+from flowmc.runtime.validate import BoundNode, value_matches
+
+__all__ = ["Runtime", "RunResult", "NodeResult", "run", "validate", "value_matches"]
+
+_MAX_PLANS = 16
+
+
+@dataclass
+class NodeResult:
+    """``status``: done (ran), cached (reused), failed, skipped (an upstream node failed)."""
+
+    node_id: str
+    status: str
+    duration: float = 0.0
+    outputs: dict[str, Any] = field(default_factory=dict)
+    error: str | None = None
+    logs: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RunResult:
+    nodes: dict[str, NodeResult]
+    outputs: dict[str, Any]  # the graph's interface outputs (those produced)
+    events: list[Event]
+    order: list[str]
+
+    @property
+    def ok(self) -> bool:
+        return all(r.status in ("done", "cached") for r in self.nodes.values())
+
+    @property
+    def errors(self) -> list[str]:
+        return [r.error for r in self.nodes.values() if r.status == "failed" and r.error]
+
+    @property
+    def executed(self) -> list[str]:
+        return [n for n in self.order if self.nodes[n].status in ("done", "failed")]
+
+    @property
+    def cached(self) -> list[str]:
+        return [n for n in self.order if self.nodes[n].status == "cached"]
+
+    def output(self, node_id: str, port: str) -> Any:
+        return self.nodes[node_id].outputs[port]
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-able: per-node status, duration and output summaries, interface outputs."""
+        return {
+            "ok": self.ok,
+            "errors": self.errors,
+            "nodes": {
+                n: {
+                    "status": r.status,
+                    "duration_s": round(r.duration, 6),
+                    **({"error": r.error} if r.error else {}),
+                    **({"logs": r.logs} if r.logs else {}),
+                    "outputs": {k: summarize(v) for k, v in r.outputs.items()},
+                }
+                for n, r in ((n, self.nodes[n]) for n in self.order)
+            },
+            "outputs": {k: summarize(v) for k, v in self.outputs.items()},
+        }
+
+
+def summarize(value: Any) -> Any:
+    """``value.summary()`` when it has one, plain scalars as they are, else the type name."""
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, np.generic):
+        return value.item()
+    if callable(getattr(value, "summary", None)):
+        return value.summary()
+    if isinstance(value, (list, tuple)) and len(value) <= 20 and all(isinstance(v, (bool, int, float, str)) for v in value):
+        return list(value)
+    return {"type": type(value).__name__}
+
+
+class Runtime:
+    """Owns an output cache, an event bus and sub-graph child runtimes.
+
+    Runs from several threads (editor callbacks) take turns; planning has its own lock, so a
+    graph can be validated while another runs. Listeners run on the thread that runs."""
+
+    def __init__(self) -> None:
+        self._plan_lock = threading.RLock()
+        self._run_lock = threading.RLock()
+        self.events = EventBus()
+        self.cache = NodeCache()
+        self._plans: dict[tuple, Plan] = {}
+        self._children: dict[str, Runtime] = {}
+
+    def subscribe(self, listener: Listener) -> Callable[[], None]:
+        """Call ``listener(event)`` for every event of every run; returns an unsubscribe function."""
+        return self.events.subscribe(listener)
+
+    def clear_cache(self) -> None:
+        with self._run_lock:
+            self.cache.clear()
+            self._children.clear()
+
+    def child(self, key: str) -> "Runtime":
+        runtime = self._children.get(key)
+        if runtime is None:
+            runtime = self._children[key] = Runtime()
+        return runtime
+
+    # ------------------------------------------------------------ planning
+
+    def plan(self, graph: Graph, *, base_dir: str | os.PathLike | None = None) -> Plan:
+        """Validate and schedule; reused while the graph (positions aside), the registry and
+        the sub-graph files it reads are unchanged. Check ``plan.issues``."""
+        from flowmc.nodes import load_all
+
+        load_all()
+        site = Site.for_graph(Path(base_dir) if base_dir is not None else graph.base_dir, graph.path)
+        key = (graph.fingerprint_json(), site, registry.generation())
+        with self._plan_lock:
+            plan = self._plans.get(key)
+            if plan is not None and plan.deps_unchanged():
+                return plan
+            frozen = graph.model_copy(deep=True)  # the plan must not change when the caller edits the graph
+            frozen.path = graph.path
+            plan = make_plan(frozen, site)
+            if plan.ok:  # invalid plans are redone: a missing file or library graph may appear
+                if len(self._plans) >= _MAX_PLANS:
+                    self._plans.pop(next(iter(self._plans)))
+                self._plans[key] = plan
+            return plan
+
+    def validate(self, graph: Graph, *, base_dir: str | os.PathLike | None = None) -> list[Issue]:
+        return list(self.plan(graph, base_dir=base_dir).issues)
+
+    # ------------------------------------------------------------ running
+
+    def run(self, graph: Graph | Plan | str | os.PathLike, inputs: dict[str, Any] | None = None, *,
+            base_dir: str | os.PathLike | None = None) -> RunResult:
+        """Run the whole graph. Raises GraphError (``.issues``) when it is invalid or an input is wrong;
+        node failures are reported in the result (``result.ok`` is False), not raised."""
+        if isinstance(graph, (str, os.PathLike)):
+            graph = load(graph)
+        with self._run_lock:
+            plan = graph if isinstance(graph, Plan) else self.plan(graph, base_dir=base_dir)
+            where = plan.graph.where
+            if not plan.ok:
+                raise GraphError(_count(plan.issues, "problem"), where=where, issues=plan.issues)
+            fed, issues = _interface_values(plan, inputs or {})
+            if issues:
+                raise GraphError(_count(issues, "problem") + " with the inputs", where=where, issues=issues)
+            return _Run(self, plan, fed).execute()
+
+
+def _count(items: list, noun: str) -> str:
+    return f"{len(items)} {noun}{'s' if len(items) != 1 else ''}"
+
+
+def _interface_values(plan: Plan, inputs: dict[str, Any]) -> tuple[dict[tuple[str, str], tuple[Any, str]], list[Issue]]:
+    """Values fed into internal ports by the graph's interface inputs, and any problems with them."""
+    issues, fed = [], {}
+    for name in inputs:
+        if name not in plan.iface_inputs:
+            known = ", ".join(plan.iface_inputs) or "none"
+            issues.append(Issue("unknown-input", ("interface", "inputs", name), f"no interface input {name!r} (inputs: {known})"))
+    for name, (item, targets) in plan.iface_inputs.items():
+        if name in inputs:
+            value = inputs[name]
+        elif item.default is not None:
+            value = item.default
+        else:
+            needed = [f"{n}.{p}" for n, p in targets if plan.nodes[n].inputs[p].required and not plan.nodes[n].inputs[p].param]
+            if needed:
+                issues.append(Issue("missing-input", ("interface", "inputs", name),
+                                    f"interface input {name!r} ({item.type}) is required by {', '.join(needed)}"))
+            continue
+        if not value_matches(item.type, value):
+            issues.append(Issue("invalid-input", ("interface", "inputs", name),
+                                f"interface input {name!r} must be a {item.type}, got {type(value).__name__} {value!r}"))
+            continue
+        try:
+            value_digest = digest(value)
+        except Undigestable as exc:
+            issues.append(Issue("invalid-input", ("interface", "inputs", name), f"interface input {name!r}: {exc}"))
+            continue
+        for target in targets:
+            fed[target] = (value, value_digest)
+    return fed, issues
+
+
+class _Run:
+    """One execution of a plan: values on wires, per-node results, events."""
+
+    def __init__(self, runtime: Runtime, plan: Plan, fed: dict[tuple[str, str], tuple[Any, str]]):
+        self.runtime, self.plan, self.fed = runtime, plan, fed
+        self.values: dict[tuple[str, str], tuple[Any, str]] = {}
+        self.results: dict[str, NodeResult] = {}
+        self.events: list[Event] = []
+        self.blocked: dict[str, str] = {}
+
+    def emit(self, kind: str, node_id: str, duration: float | None = None, message: str | None = None) -> None:
+        event = Event(kind, node_id, duration, message)  # type: ignore[arg-type]
+        self.events.append(event)
+        self.runtime.events.emit(event)
+
+    def execute(self) -> RunResult:
+        order = self.plan.order
+        for node_id in order:
+            self.emit("queued", node_id)
+        for node_id in order:
+            if node_id in self.blocked:
+                reason = f"skipped: upstream node {self.blocked[node_id]!r} failed"
+                self.results[node_id] = NodeResult(node_id, "skipped", error=reason)
+                self.emit("skipped", node_id, message=reason)
+            else:
+                self.step(self.plan.nodes[node_id])
+        outputs = {name: self.values[src][0] for name, (_item, src) in self.plan.iface_outputs.items() if src in self.values}
+        return RunResult(self.results, outputs, self.events, order)
+
+    def gather(self, node: BoundNode) -> tuple[dict[str, Any], list[tuple[str, str]]]:
+        """Values arriving on the node's inputs (wired or fed by the interface) and their digests."""
+        wired, digests = {}, []
+        for name in node.inputs:
+            src = node.sources.get(name)
+            item = self.values.get(src) if src is not None else self.fed.get((node.id, name))
+            if item is not None:
+                wired[name] = item[0]
+                digests.append((name, item[1]))
+        return wired, digests
+
+    def step(self, node: BoundNode) -> None:
+        wired, digests = self.gather(node)
+        sig = signature(node.static, digests)
+        if node.pure:
+            entry = self.runtime.cache.get(node.id, sig)
+            if entry is not None:
+                self.publish(node, entry.outputs, entry.digests)
+                self.results[node.id] = NodeResult(node.id, "cached", outputs=entry.outputs)
+                self.emit("cached", node.id, 0.0)
+                return
+        result = self.results[node.id] = NodeResult(node.id, "running")
+        self.emit("running", node.id)
+        start = time.perf_counter()
+        try:
+            outputs = self.invoke(node, wired, result)
+            out_digests = _digest_outputs(node, outputs)
+        except Exception as exc:  # every failure becomes a message, never a traceback
+            result.status, result.duration = "failed", time.perf_counter() - start
+            result.error = _failure_message(node.id, exc)
+            self.runtime.cache.drop(node.id)
+            for down in sorted(self.plan.downstream(node.id)):
+                self.blocked.setdefault(down, node.id)
+            self.emit("failed", node.id, result.duration, result.error)
+            return
+        result.status, result.duration, result.outputs = "done", time.perf_counter() - start, outputs
+        self.publish(node, outputs, out_digests)
+        if node.pure:
+            self.runtime.cache.put(node.id, CacheEntry(sig, outputs, out_digests))
+        self.emit("done", node.id, result.duration)
+
+    def publish(self, node: BoundNode, outputs: dict[str, Any], digests: dict[str, str]) -> None:
+        for name, value in outputs.items():
+            self.values[(node.id, name)] = (value, digests[name])
+
+    def invoke(self, node: BoundNode, wired: dict[str, Any], result: NodeResult) -> dict[str, Any]:
+        params = _params_with_wires(node, wired)
+        kwargs = {name: wired.get(name, port.default) for name, port in node.inputs.items() if not port.param}
+
+        def log(message: str) -> None:
+            result.logs.append(message)
+            self.emit("log", node.id, message=message)
+
+        ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id))
+        outputs = node.cls().run(ctx, params, **kwargs)
+        _check_outputs(node, outputs)
+        return outputs
+
+
+def _params_with_wires(node: BoundNode, wired: dict[str, Any]) -> Any:
+    """The stored params with wired values merged in, validated against the params model."""
+    fed = {name: wired[name] for name, port in node.inputs.items() if port.param and name in wired}
+    if not fed and node.params is not None:
+        return node.params
+    try:
+        return node.cls.Params.model_validate({**node.raw_params, **fed})
+    except ValidationError as exc:
+        problems = []
+        for err in exc.errors():
+            name = ".".join(str(p) for p in err["loc"])
+            how = "fed by wire" if err["loc"] and err["loc"][0] in fed else "stored"
+            problems.append(f"param {name!r} ({how}): {err['msg']}")
+        raise FlowmcError("; ".join(problems)) from None
+
+
+def _check_outputs(node: BoundNode, outputs: Any) -> None:
+    if not isinstance(outputs, dict):
+        raise FlowmcError(f"{node.cls.type_id}.run returned {type(outputs).__name__}, expected a dict of outputs")
+    missing = [n for n in node.outputs if n not in outputs]
+    extra = [n for n in outputs if n not in node.outputs]
+    if missing or extra:
+        raise FlowmcError(f"{node.cls.type_id}.run returned outputs {sorted(outputs)}, declared {list(node.outputs)}")
+    for name, port in node.outputs.items():
+        if not value_matches(port.type, outputs[name]):
+            raise FlowmcError(f"output {name!r} should be a {port.type}, got {type(outputs[name]).__name__}")
+
+
+def _digest_outputs(node: BoundNode, outputs: dict[str, Any]) -> dict[str, str]:
+    try:
+        return {name: digest(value) for name, value in outputs.items()}
+    except Undigestable as exc:
+        raise FlowmcError(f"an output of {node.cls.type_id} cannot be cached: {exc}") from None
+
+
+def _failure_message(node_id: str, exc: BaseException) -> str:
+    if isinstance(exc, FlowmcError):
+        text = str(exc)
+    else:
+        text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    prefix = f"node {node_id!r}"
+    return text if text.startswith(prefix) else f"{prefix}: {text}"
+
+
+# ---------------------------------------------------------------- module-level API
+
+def run(graph: Graph | str | os.PathLike, inputs: dict[str, Any] | None = None, runtime: Runtime | None = None, *,
+        base_dir: str | os.PathLike | None = None) -> RunResult:
+    """Run ``graph`` (a Graph or a file path) once; pass a ``runtime`` to keep its cache between runs."""
+    return (runtime or Runtime()).run(graph, inputs, base_dir=base_dir)
+
+
+def validate(graph: Graph | str | os.PathLike, *, base_dir: str | os.PathLike | None = None) -> list[Issue]:
+    """Every problem in ``graph`` (empty list: it can run). Nothing runs."""
+    if isinstance(graph, (str, os.PathLike)):
+        graph = load(graph)
+    return Runtime().validate(graph, base_dir=base_dir)
+

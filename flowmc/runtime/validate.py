@@ -1,0 +1,298 @@
+"""Validation: check a whole graph before anything runs and collect EVERY problem.
+
+Each problem is an ``Issue(code, location, message)``; the message names the node id and
+port, the location points into the file for the editor. A node whose type or ports are
+unknown is reported once: the wires touching it are not flagged again.
+
+Codes: unknown-node-type, unknown-param, invalid-param, missing-input, unknown-node,
+unknown-port, broken-wire, input-wired-twice, duplicate-node-id, interface-port,
+interface-type, interface-duplicate, cycle (schedule.py), subgraph, subgraph-recursion,
+path-escape (the last three from sub-graph nodes).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ValidationError
+
+from flowmc import registry
+from flowmc.errors import GraphError
+from flowmc.graph import Graph, Issue, Node, split_ref
+from flowmc.registry import In, NodeType, Out
+from flowmc.runtime.cache import static_key
+from flowmc.runtime.context import Site
+
+__all__ = ["BoundNode", "Checked", "check_graph", "value_matches"]
+
+
+def value_matches(port_type: str, value: Any) -> bool:
+    """Scalar port types are checked; object types are trusted to their node's declaration."""
+    if port_type == "Number":
+        return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    if port_type == "Bool":
+        return isinstance(value, (bool, np.bool_))
+    if port_type == "Text":
+        return isinstance(value, str)
+    return True
+
+
+@dataclass
+class BoundNode:
+    """A node with its type resolved, params validated and ports known."""
+
+    id: str
+    cls: type[NodeType]
+    raw_params: dict[str, Any]
+    params: BaseModel | None  # None: some stored param is invalid but wired (checked at run time)
+    inputs: dict[str, In]  # data inputs and param ports by name
+    outputs: dict[str, Out]
+    pure: bool
+    static: bytes = b""
+    binding: Any = None  # sub-graph types: the inner plan
+    sources: dict[str, tuple[str, str]] = field(default_factory=dict)  # input -> (node, output)
+    fed: dict[str, str] = field(default_factory=dict)  # input -> interface input name
+
+
+@dataclass
+class Checked:
+    issues: list[Issue]
+    nodes: dict[str, BoundNode]
+    node_ids: list[str]  # every distinct id, sorted (also those whose type is unknown)
+    edges: list[tuple[str, str]]
+    iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]]
+    iface_outputs: dict[str, tuple[Any, tuple[str, str]]]
+    deps: dict[Path, tuple[int, int]]
+
+
+def check_graph(graph: Graph, site: Site) -> Checked:
+    issues: list[Issue] = []
+    nodes = _unique_nodes(graph, issues)
+    targets = _targets_by_node(graph)
+    deps: dict[Path, tuple[int, int]] = {}
+    bound: dict[str, BoundNode] = {}
+    for node in nodes.values():
+        b = _bind_node(node, site, targets.get(node.id, set()), issues, deps)
+        if b is not None:
+            bound[node.id] = b
+    edges, fed_by = _check_wires(graph, nodes, bound, issues)
+    iface_in, iface_out = _check_interface(graph, nodes, bound, fed_by, issues)
+    _check_required(bound, targets, issues)
+    return Checked(issues, bound, sorted(nodes), edges, iface_in, iface_out, deps)
+
+
+def _unique_nodes(graph: Graph, issues: list[Issue]) -> dict[str, Node]:
+    nodes: dict[str, Node] = {}
+    counts: dict[str, int] = {}
+    for node in graph.nodes:
+        counts[node.id] = counts.get(node.id, 0) + 1
+        nodes.setdefault(node.id, node)
+    for node_id, n in sorted(counts.items()):
+        if n > 1:
+            issues.append(Issue("duplicate-node-id", ("nodes", node_id), f"node {node_id!r}: id used by {n} nodes"))
+    return nodes
+
+
+def _targets_by_node(graph: Graph) -> dict[str, set[str]]:
+    """Ports fed from outside the node (wires and interface inputs), by node id."""
+    out: dict[str, set[str]] = {}
+    refs = [w.to for w in graph.wires]
+    if graph.interface is not None:
+        refs += [ref for item in graph.interface.inputs for ref in item.to]
+    for ref in refs:
+        node_id, port = split_ref(ref)
+        out.setdefault(node_id, set()).add(port)
+    return out
+
+
+# ---------------------------------------------------------------- nodes
+
+def _unknown_type_message(node: Node) -> str:
+    from flowmc.nodes import load_failures
+
+    msg = f"node {node.id!r}: unknown node type {node.type!r}"
+    failed = load_failures()
+    if failed:
+        msg += " (node modules that failed to load: " + "; ".join(f"{m}: {e}" for m, e in failed.items()) + ")"
+    return msg
+
+
+def _bind_node(node: Node, site: Site, fed_ports: set[str], issues: list[Issue], deps: dict) -> BoundNode | None:
+    try:
+        cls = registry.lookup(node.type, site.graph_dir)
+    except GraphError:
+        issues.append(Issue("unknown-node-type", ("nodes", node.id, "type"), _unknown_type_message(node)))
+        return None
+    params, param_issues = _validate_params(node, cls, fed_ports)
+    issues.extend(param_issues)
+    binder = getattr(cls, "bind_site", None)
+    if (binder is not None or cls.dynamic_ports()) and params is None:
+        return None  # ports depend on params we could not read
+    binding, pure, extra = None, cls.pure, ""
+    if binder is not None:
+        try:
+            bound_site = binder(params, site, node.id)
+        except GraphError as exc:
+            issues.extend(exc.issues or [Issue("subgraph", ("nodes", node.id, "params"), f"node {node.id!r}: {exc}")])
+            return None
+        ports, pure, extra, binding = bound_site.ports, bound_site.pure, bound_site.key, bound_site.plan
+        deps.update(bound_site.deps)
+    elif cls.dynamic_ports():
+        try:
+            ports = cls.ports(params)
+            registry.check_ports(f"node {node.id!r} ({node.type})", ports)
+        except Exception as exc:
+            issues.append(Issue("invalid-param", ("nodes", node.id, "params"), f"node {node.id!r}: {exc}"))
+            return None
+    else:
+        ports = registry.Ports(cls.inputs, cls.outputs)
+    inputs = {p.name: p for p in ports.inputs + cls.param_ports()}
+    outputs = {p.name: p for p in ports.outputs}
+    params_json = params.model_dump_json() if params is not None else json.dumps(node.params, sort_keys=True, default=str)
+    static = static_key(cls.type_id, cls.version, params_json, extra)
+    return BoundNode(node.id, cls, node.params, params, inputs, outputs, pure, static, binding)
+
+
+def _validate_params(node: Node, cls: type[NodeType], fed_ports: set[str]) -> tuple[BaseModel | None, list[Issue]]:
+    """Validated params, or None with the issues. Errors on params fed by a wire are left to run time."""
+    try:
+        return cls.Params.model_validate(node.params), []
+    except ValidationError as exc:
+        errors = exc.errors()
+    known = ", ".join(cls.Params.model_fields) or "none"
+    issues = []
+    for err in errors:
+        loc = tuple(err["loc"])
+        name = ".".join(str(p) for p in loc) or "(params)"
+        if err["type"] == "extra_forbidden":
+            issues.append(Issue("unknown-param", ("nodes", node.id, "params", *loc),
+                                f"node {node.id!r}: unknown param {name!r} ({cls.type_id} params: {known})"))
+        elif not (len(loc) == 1 and loc[0] in fed_ports):
+            issues.append(Issue("invalid-param", ("nodes", node.id, "params", *loc),
+                                f"node {node.id!r}: param {name!r}: {err['msg']}"))
+    return None, issues
+
+
+# ---------------------------------------------------------------- wires
+
+def _wire_text(src: str, dst: str) -> str:
+    return f"wire {src} -> {dst}"
+
+
+def _check_wires(graph: Graph, nodes: dict[str, Node], bound: dict[str, BoundNode], issues: list[Issue]):
+    """Check each wire; returns the graph edges and ``{(node, input): wire text}``."""
+    edges = []
+    fed_by: dict[tuple[str, str], str] = {}
+    for i, wire in enumerate(graph.wires):
+        (s_node, s_port), (d_node, d_port) = split_ref(wire.from_), split_ref(wire.to)
+        text = _wire_text(wire.from_, wire.to)
+        ok = True
+        for end, node_id in (("from", s_node), ("to", d_node)):
+            if node_id not in nodes:
+                issues.append(Issue("unknown-node", ("wires", i, end), f"{text}: no node {node_id!r}"))
+                ok = False
+        if not ok:
+            continue
+        edges.append((s_node, d_node))
+        src, dst = bound.get(s_node), bound.get(d_node)
+        out = src.outputs.get(s_port) if src else None
+        inp = dst.inputs.get(d_port) if dst else None
+        if src is not None and out is None:
+            issues.append(Issue("unknown-port", ("wires", i, "from"),
+                                f"{text}: node {s_node!r} has no output {s_port!r} (outputs: {', '.join(src.outputs) or 'none'})"))
+        if dst is not None and inp is None:
+            issues.append(Issue("unknown-port", ("wires", i, "to"),
+                                f"{text}: node {d_node!r} has no input {d_port!r} (inputs: {', '.join(dst.inputs) or 'none'})"))
+        if inp is None:
+            continue
+        previous = fed_by.get((d_node, d_port))
+        if previous is not None:
+            issues.append(Issue("input-wired-twice", ("wires", i, "to"),
+                                f"{text}: node {d_node!r} input {d_port!r} is already fed by {previous}"))
+            continue
+        fed_by[(d_node, d_port)] = text
+        if out is None:
+            continue
+        if not inp.accepts(out.type):
+            issues.append(Issue("broken-wire", ("wires", i),
+                                f"{text}: node {s_node!r} output {s_port!r} is {out.type} but node {d_node!r} "
+                                f"input {d_port!r} takes {' or '.join(inp.types)}"))
+            continue
+        dst.sources[d_port] = (s_node, s_port)
+    return edges, fed_by
+
+
+def _check_interface(graph: Graph, nodes: dict[str, Node], bound: dict[str, BoundNode], fed_by: dict, issues: list[Issue]):
+    iface_in: dict[str, tuple[Any, list[tuple[str, str]]]] = {}
+    iface_out: dict[str, tuple[Any, tuple[str, str]]] = {}
+    if graph.interface is None:
+        return iface_in, iface_out
+    for item in graph.interface.inputs:
+        loc = ("interface", "inputs", item.name)
+        if item.name in iface_in:
+            issues.append(Issue("interface-duplicate", loc, f"interface input {item.name!r} is declared twice"))
+            continue
+        if item.default is not None and (item.type not in ("Number", "Bool", "Text") or not value_matches(item.type, item.default)):
+            issues.append(Issue("interface-type", (*loc, "default"),
+                                f"interface input {item.name!r}: default {item.default!r} is not a {item.type} (defaults are Number, Bool or Text)"))
+        targets = []
+        for k, ref in enumerate(item.to):
+            node_id, port = split_ref(ref)
+            where = f"interface input {item.name!r} -> {ref}"
+            inp = _interface_port(node_id, port, "input", nodes, bound, issues, (*loc, "to", k), where)
+            if inp is None:
+                continue
+            node = bound[node_id]
+            if (node_id, port) in fed_by or port in node.fed:
+                issues.append(Issue("input-wired-twice", (*loc, "to", k), f"{where}: node {node_id!r} input {port!r} is already fed"))
+            elif not inp.accepts(item.type):
+                issues.append(Issue("interface-type", (*loc, "to", k),
+                                    f"{where}: interface type {item.type} but node {node_id!r} input {port!r} takes {' or '.join(inp.types)}"))
+            else:
+                node.fed[port] = item.name
+                targets.append((node_id, port))
+        iface_in[item.name] = (item, targets)
+    for item in graph.interface.outputs:
+        loc = ("interface", "outputs", item.name)
+        if item.name in iface_out:
+            issues.append(Issue("interface-duplicate", loc, f"interface output {item.name!r} is declared twice"))
+            continue
+        node_id, port = split_ref(item.from_)
+        where = f"interface output {item.name!r} <- {item.from_}"
+        out = _interface_port(node_id, port, "output", nodes, bound, issues, (*loc, "from"), where)
+        if out is None:
+            continue
+        if out.type != item.type:
+            issues.append(Issue("interface-type", (*loc, "from"),
+                                f"{where}: interface type {item.type} but node {node_id!r} output {port!r} is {out.type}"))
+            continue
+        iface_out[item.name] = (item, (node_id, port))
+    return iface_in, iface_out
+
+
+def _interface_port(node_id, port, kind, nodes, bound, issues, loc, where):
+    if node_id not in nodes:
+        issues.append(Issue("interface-port", loc, f"{where}: no node {node_id!r}"))
+        return None
+    node = bound.get(node_id)
+    if node is None:
+        return None  # its own problem is reported already
+    ports = node.inputs if kind == "input" else node.outputs
+    if port not in ports:
+        issues.append(Issue("interface-port", loc,
+                            f"{where}: node {node_id!r} has no {kind} {port!r} ({kind}s: {', '.join(ports) or 'none'})"))
+        return None
+    return ports[port]
+
+
+def _check_required(bound: dict[str, BoundNode], targets: dict[str, set[str]], issues: list[Issue]) -> None:
+    for node in bound.values():
+        fed = targets.get(node.id, ())
+        for name, port in node.inputs.items():
+            if port.required and not port.param and name not in fed:
+                issues.append(Issue("missing-input", ("nodes", node.id, "inputs", name),
+                                    f"node {node.id!r}: required input {name!r} ({' or '.join(port.types)}) is not wired"))

@@ -1,0 +1,222 @@
+"""Sub-graphs, as LabVIEW sub-VIs: a graph file with an ``interface`` used as one node.
+
+Two ways in: the ``subgraph`` type with a ``file`` param (relative to the using graph's
+folder, never leaving the root folder), and library types ``lib.<stem>`` for the graphs in
+``<repo>/graphs/lib/`` and in a ``lib/`` folder beside the graph (which wins on a clash).
+A graph that uses itself, directly or through others, is refused with the chain named.
+Nothing is imported or executed from a file: a sub-graph is only more nodes of known types.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+import flowmc
+from flowmc.errors import GraphError, NodeError
+from flowmc.graph import Graph, Issue, dumps, load
+from flowmc.registry import REQUIRED, In, NodeType, NoParams, Out, Ports
+from flowmc.runtime.context import Site, resolve_inside
+from flowmc.runtime.schedule import Plan, make_plan
+
+__all__ = ["Subgraph", "LibraryGraph", "Binding", "PACKAGE_LIB", "library_type", "library_types", "interface_ports"]
+
+PACKAGE_LIB = Path(flowmc.__file__).resolve().parents[1] / "graphs" / "lib"
+SUFFIX = ".flowmc.json"
+
+
+@dataclass(frozen=True)
+class Binding:
+    """A sub-graph file bound at one place: its ports, purity, cache key part and inner plan."""
+
+    ports: Ports
+    pure: bool
+    key: str
+    plan: Plan
+    deps: dict[Path, tuple[int, int]]
+
+
+def interface_ports(graph: Graph, plan: Plan | None = None) -> Ports:
+    """Ports of a graph used as a node. An input with no default is required only when it
+    feeds a required data input inside; otherwise leaving it unwired keeps the inner values."""
+    if graph.interface is None:
+        return Ports((), ())
+    inputs = []
+    for item in graph.interface.inputs:
+        default: Any = item.default
+        if default is None:
+            targets = plan.iface_inputs.get(item.name, (None, []))[1] if plan is not None else []
+            needed = any(plan.nodes[n].inputs[p].required and not plan.nodes[n].inputs[p].param for n, p in targets)
+            default = REQUIRED if needed else None
+        inputs.append(In(item.name, item.type, doc=item.description, default=default))
+    outputs = tuple(Out(item.name, item.type, doc=item.description) for item in graph.interface.outputs)
+    return Ports(tuple(inputs), outputs)
+
+
+def _stat(path: Path) -> tuple[int, int]:
+    st = path.stat()
+    return st.st_mtime_ns, st.st_size
+
+
+def bind_file(path: Path, site: Site, node_id: str) -> Binding:
+    """Load, check and plan the sub-graph at ``path`` (already inside the root). GraphError with issues."""
+    loc = ("nodes", node_id, "params", "file")
+    shown = site.name(path)
+
+    def fail(code: str, message: str) -> GraphError:
+        return GraphError(message, issues=[Issue(code, loc, f"node {node_id!r}: {message}")])
+
+    if path in site.chain:
+        names = " -> ".join(site.name(p) for p in site.chain + (path,))
+        raise fail("subgraph-recursion", f"sub-graph recursion: {names}")
+    try:
+        graph = load(path)
+    except GraphError as exc:
+        detail = "; ".join(i.message for i in exc.issues) if exc.issues else exc.message
+        raise fail("subgraph", f"sub-graph {shown}: {detail}") from None
+    if graph.interface is None:
+        raise fail("subgraph", f"sub-graph {shown} declares no interface, so it cannot be used as a node")
+    plan = make_plan(graph, Site(path.parent, site.root, site.chain + (path,)))
+    if plan.issues:
+        issues = [
+            Issue(i.code if i.code == "subgraph-recursion" else "subgraph", loc, f"node {node_id!r}: sub-graph {shown}: {i.message}")
+            for i in plan.issues
+        ]
+        raise GraphError(issues[0].message, issues=issues)
+    h = hashlib.blake2b(dumps(graph).encode(), digest_size=16)
+    for node_id_inner in plan.order:
+        h.update(plan.nodes[node_id_inner].static)
+    deps = {path: _stat(path), **plan.deps}
+    return Binding(interface_ports(graph, plan), plan.pure, h.hexdigest(), plan, deps)
+
+
+def _run_bound(ctx: Any, inputs: dict[str, Any], name: str) -> dict[str, Any]:
+    given = {k: v for k, v in inputs.items() if v is not None}
+    result = ctx.child_runtime().run(ctx.binding, given)
+    if not result.ok:
+        raise NodeError("; ".join(result.errors), where=f"sub-graph {name}")
+    return dict(result.outputs)
+
+
+class SubgraphParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    file: str = Field(description="Graph file with an interface, relative to this graph's folder")
+
+
+class Subgraph(NodeType):
+    """Registered by ``flowmc.nodes.load_all``."""
+
+    type_id = "subgraph"
+    title = "Sub-graph"
+    category = "Graph"
+    description = "Run a saved graph that declares an interface as one node; its ports are that interface."
+    Params = SubgraphParams
+    fixed_params = ("file",)
+
+    @classmethod
+    def bind_site(cls, params: SubgraphParams, site: Site, node_id: str) -> Binding:
+        try:
+            path = resolve_inside(site.root, site.graph_dir, params.file)
+        except GraphError as exc:
+            issue = Issue("path-escape", ("nodes", node_id, "params", "file"), f"node {node_id!r}: file {exc.message}")
+            raise GraphError(issue.message, issues=[issue]) from None
+        return bind_file(path, site, node_id)
+
+    def run(self, ctx: Any, params: SubgraphParams, **inputs: Any) -> dict[str, Any]:
+        return _run_bound(ctx, inputs, params.file)
+
+
+class LibraryGraph(NodeType):
+    """Base of the generated ``lib.<stem>`` types; ``file_path`` and ``lib_dir`` are set per type."""
+
+    category = "Library"
+    Params = NoParams
+    file_path: Path
+    lib_dir: Path
+
+    @classmethod
+    def bind_site(cls, params: NoParams, site: Site, node_id: str) -> Binding:
+        return bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, site.chain), node_id)
+
+    def run(self, ctx: Any, params: NoParams, **inputs: Any) -> dict[str, Any]:
+        return _run_bound(ctx, inputs, self.type_id)
+
+
+# ---------------------------------------------------------------- library folders
+
+_lib_cache: dict[Path, tuple[tuple[int, int], type[LibraryGraph]]] = {}
+
+
+def _lib_dirs(graph_dir: Any) -> list[Path]:
+    """Library folders seen from a graph: ``lib/`` beside it, its own folder when that is a
+    ``lib/`` (library graphs use their siblings), then the package library."""
+    dirs = []
+    if graph_dir is not None:
+        here = Path(graph_dir).resolve()
+        for candidate in (here / "lib", here if here.name == "lib" else None):
+            if candidate is not None and candidate.is_dir() and candidate not in dirs:
+                dirs.append(candidate)
+    if PACKAGE_LIB.is_dir() and PACKAGE_LIB not in dirs:
+        dirs.append(PACKAGE_LIB)
+    return dirs
+
+
+_building: set[Path] = set()
+
+
+def _lib_class(path: Path, lib_dir: Path) -> type[LibraryGraph]:
+    """The ``lib.<stem>`` type for a file, rebuilt when the file changes."""
+    stat = _stat(path)
+    cached = _lib_cache.get(path)
+    if cached is not None and cached[0] == stat:
+        return cached[1]
+    stem = path.name[: -len(SUFFIX)]
+    title, description, ports = stem, f"Library graph {stem}", Ports((), ())
+    building = path in _building  # library graphs using each other: binding reports the recursion
+    _building.add(path)
+    try:
+        graph = load(path)
+        title = graph.title or stem
+        description = (graph.description.strip().splitlines() or [description])[0]
+        if not building:
+            ports = bind_file(path, Site(lib_dir, lib_dir), "lib").ports
+    except GraphError:
+        pass  # described without ports; using it reports the problem on the node
+    finally:
+        if not building:
+            _building.discard(path)
+    attrs = {"type_id": f"lib.{stem}", "title": title, "description": description, "inputs": ports.inputs,
+             "outputs": ports.outputs, "file_path": path, "lib_dir": lib_dir, "__module__": __name__}
+    cls = type(f"Lib_{stem}", (LibraryGraph,), attrs)
+    if not building:
+        _lib_cache[path] = (stat, cls)
+    return cls
+
+
+def library_type(type_id: str, graph_dir: Any = None) -> type[LibraryGraph] | None:
+    """The type for ``lib.<stem>``: ``<graph_dir>/lib`` first, then the package library."""
+    stem = type_id[len("lib."):]
+    if not stem or "/" in stem or "\\" in stem or stem.startswith("."):
+        return None
+    for lib_dir in _lib_dirs(graph_dir):
+        if (lib_dir / f"{stem}{SUFFIX}").is_file():
+            try:  # a symlink out of the library folder is not a library graph
+                return _lib_class(resolve_inside(lib_dir, lib_dir, f"{stem}{SUFFIX}"), lib_dir)
+            except GraphError:
+                return None
+    return None
+
+
+def library_types(graph_dir: Any = None) -> dict[str, type[LibraryGraph]]:
+    found: dict[str, type[LibraryGraph]] = {}
+    for lib_dir in reversed(_lib_dirs(graph_dir)):  # the local lib/ overrides the package one
+        for path in sorted(lib_dir.glob(f"*{SUFFIX}")):
+            if not path.resolve().is_relative_to(lib_dir):
+                continue
+            cls = _lib_class(path.resolve(), lib_dir)
+            found[cls.type_id] = cls
+    return dict(sorted(found.items()))

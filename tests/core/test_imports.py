@@ -1,0 +1,37 @@
+"""The core imports in one direction: no node, device or UI module, and no viser."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+CODE = """
+import sys
+import flowmc
+assert [m for m in sys.modules if m.startswith("flowmc.")] == [], "import flowmc must stay light"
+import flowmc.graph, flowmc.registry, flowmc.runtime, flowmc.subgraph, flowmc.builder, flowmc.cli, flowmc.digest
+g = flowmc.GraphBuilder()
+g.add("basic.number", id="n")
+flowmc.save(g.build(), sys.argv[1])
+flowmc.load(sys.argv[1])
+bad = [m for m in sys.modules if m.startswith(("flowmc.nodes.", "flowmc.devices", "flowmc.ui", "viser"))]
+print(bad)
+"""
+
+
+def test_core_imports_no_nodes_devices_or_ui(tmp_path):
+    proc = subprocess.run([sys.executable, "-c", CODE, str(tmp_path / "g.flowmc.json")],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]"
+
+
+def test_console_script_and_module_entry_points_agree():
+    import shutil
+
+    script = shutil.which("flowmc")
+    assert script is not None, "pip install -e . provides the flowmc command"
+    via_script = subprocess.run([script, "schema"], capture_output=True, text=True, timeout=60)
+    via_module = subprocess.run([sys.executable, "-m", "flowmc", "schema"], capture_output=True, text=True, timeout=60)
+    assert via_script.returncode == via_module.returncode == 0
+    assert via_script.stdout == via_module.stdout

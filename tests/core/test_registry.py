@@ -1,0 +1,121 @@
+"""Node registry: declarations checked at import, param ports, describe, clean scoping."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import pytest
+from pydantic import BaseModel, ConfigDict, Field
+
+from flowmc import registry
+from flowmc.errors import GraphError
+from flowmc.registry import In, NodeType, Out, Ports, register
+
+
+class _P(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    speed: float = Field(1.0, gt=0, description="speed")
+    count: int = 3
+    on: bool = False
+    mode: Literal["fast", "slow"] = "fast"
+    note: str | None = None
+    rows: list[float] = []
+
+
+def _make(**attrs):
+    base = {"type_id": "test.made", "title": "Made", "category": "Test", "description": "one line",
+            "run": lambda self, ctx, params, **kw: {}}
+    base.update(attrs)
+    return type("Made", (NodeType,), base)
+
+
+def test_param_ports_follow_the_params_model():
+    cls = register(_make(Params=_P, inputs=(In("path", "Path"),), outputs=(Out("path", "Path"),)))
+    ports = {p.name: p for p in cls.param_ports()}
+    assert {n: p.types for n, p in ports.items()} == {
+        "speed": ("Number",), "count": ("Number",), "on": ("Bool",), "mode": ("Text",), "note": ("Text",)}
+    assert ports["speed"].default == 1.0 and ports["speed"].param and not ports["speed"].required
+    assert "rows" not in ports  # lists are not scalar: no port
+
+
+@pytest.mark.parametrize(
+    "attrs, message",
+    [
+        ({"type_id": "Bad Id"}, "type_id"),
+        ({"type_id": "lib.mine"}, "reserved"),
+        ({"description": "two\nlines"}, "one line"),
+        ({"inputs": (In("x", "Vector"),)}, "unknown port type"),
+        ({"outputs": (Out("y", "Number"), Out("y", "Number"))}, "declared twice"),
+        ({"Params": _P, "inputs": (In("speed", "Number"),)}, "declared twice"),
+        ({"inputs": (In("params", "Number"),)}, "not a valid identifier"),
+        ({"Params": type("Loose", (BaseModel,), {"__annotations__": {"a": int}, "a": 1})}, 'extra="forbid"'),
+    ],
+)
+def test_bad_declarations_fail_at_registration(attrs, message):
+    with pytest.raises(TypeError, match=message):
+        register(_make(**attrs))
+    assert "test.made" not in registry.registered()
+
+
+def test_type_id_cannot_be_taken_twice():
+    register(_make())
+    other = type("Other", (NodeType,), {"type_id": "test.made", "title": "O", "category": "T", "description": "d",
+                                        "run": lambda self, ctx, params: {}})
+    with pytest.raises(TypeError, match="already used"):
+        register(other)
+
+
+def test_describe_gives_ports_schema_and_text():
+    d = registry.describe("test.sink")
+    assert d["description"] == "Takes a Path or a Trajectory and reports its label length."
+    assert d["inputs"] == [{"name": "path", "types": ["Path", "Trajectory"], "doc": "blob", "required": True,
+                            "default": None, "param": False}]
+    assert d["outputs"][0] == {"name": "n", "type": "Number", "doc": "label length"}
+    blob = registry.describe("test.blob")
+    assert blob["params_schema"]["properties"]["feed"]["exclusiveMinimum"] == 0
+    assert [p["name"] for p in blob["param_inputs"]] == ["label", "feed"]
+
+
+def test_dynamic_ports_are_described_for_given_params():
+    d = registry.describe("basic.report", params={"names": ["cycle", "error"]})
+    assert [p["name"] for p in d["inputs"]] == ["cycle", "error"]
+    assert registry.registered()["basic.report"].dynamic_ports()
+    assert not registry.registered()["basic.add"].dynamic_ports()
+
+
+def test_describe_all_lists_every_type_sorted():
+    ids = [d["type_id"] for d in registry.describe_all()]
+    assert ids == sorted(ids)
+    assert {"basic.number", "basic.check", "basic.report", "subgraph", "test.blob"} <= set(ids)
+
+
+def test_scoped_restores_the_registry():
+    with registry.scoped():
+        register(_make())
+        assert "test.made" in registry.registered()
+    assert "test.made" not in registry.registered()
+    with pytest.raises(GraphError, match="unknown node type"):
+        registry.lookup("test.made")
+
+
+def test_overridden_ports_are_checked_when_used():
+    class Dyn(NodeType):
+        type_id = "test.dyn"
+        title = "Dyn"
+        category = "Test"
+        description = "Ports from params."
+
+        @classmethod
+        def ports(cls, params):
+            return Ports((In("x", "Nope"),), ())
+
+        def run(self, ctx, params, **kw):
+            return {}
+
+    register(Dyn)
+    import flowmc
+
+    g = flowmc.GraphBuilder()
+    g.add("test.dyn", id="d")
+    issues = flowmc.validate(g.build())
+    assert len(issues) == 1 and "node 'd'" in issues[0].message and "unknown port type" in issues[0].message
