@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 import flowmc
-from conftest import run_cli
+from core_helpers import run_cli
 
 
 def _graph(folder, max_value=100.0):

@@ -160,7 +160,7 @@ def test_interface_inputs_feed_ports_and_are_checked():
     g.output("sum", "Number", add.result)
     graph = g.build()
     rt = flowmc.Runtime()
-    from conftest import Blob
+    from core_helpers import Blob
 
     assert rt.run(graph, {"p": Blob("q")}).outputs == {"sum": 41.0}
     assert rt.run(graph, {"p": Blob("q"), "b": 5}).outputs == {"sum": 6.0}

@@ -1,0 +1,136 @@
+"""Programs for GRBL: a Trajectory or Steps as G1 moves, or G-code text as given.
+
+GRBL plans its own acceleration, so flowmc sends it the *geometry* and the *speed*: the trajectory's
+setpoints thinned by Douglas-Peucker to within ``tolerance`` mm (every signal time is kept as a
+point), each kept point a ``G1`` whose F is the average speed since the previous kept point, so a
+planned slow-down survives. Where the trajectory stands still the gap becomes a ``G4`` dwell. A
+step stream (the linkage pulse table) becomes the positions it steps through, thinned the same way.
+
+Signals become M-codes before the move that starts at their time: ``spindle_rpm`` -> M3/M4 S or M5,
+digital output 1 -> M8/M9 (GRBL's flood-coolant pin, the usual relay for a pen or air valve).
+GRBL has no other outputs that flowmc can drive; other signals are refused, naming the signal.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from flowmc.errors import DeviceError
+from flowmc.motion.machine import Machine
+from flowmc.motion.trajectory import Signal, Steps, Trajectory
+
+__all__ = ["ProgramLine", "motion_gcode", "text_gcode", "decimate"]
+
+PREAMBLE = ("G21", "G90", "G94")  # millimetres, absolute, feed per minute
+_MIN_DWELL_S = 0.001
+
+
+class ProgramLine(NamedTuple):
+    """A line to send and where it came from (``"row 120"``, ``"part.ngc:12"``, ``"preamble"``)."""
+
+    text: str
+    source: str
+
+
+def _num(x: float) -> str:
+    text = f"{x:.4f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def decimate(points: np.ndarray, tolerance: float, keep=()) -> np.ndarray:
+    """Indices of the points Douglas-Peucker keeps (first, last, ``keep`` and any point off the chord by > tol)."""
+    n = len(points)
+    if n <= 2:
+        return np.arange(n)
+    forced = np.unique(np.concatenate([[0, n - 1], np.asarray(keep, dtype=int)]))
+    kept = set(forced.tolist())
+    stack = list(zip(forced[:-1].tolist(), forced[1:].tolist()))
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = points[i], points[j]
+        ab = b - a
+        inner = points[i + 1:j] - a
+        denom = float(ab @ ab)
+        if denom > 0:
+            u = np.clip(inner @ ab / denom, 0.0, 1.0)
+            dist = np.linalg.norm(inner - np.outer(u, ab), axis=1)
+        else:
+            dist = np.linalg.norm(inner, axis=1)
+        k = int(np.argmax(dist))
+        if dist[k] > tolerance:
+            m = i + 1 + k
+            kept.add(m)
+            stack += [(i, m), (m, j)]
+    return np.array(sorted(kept))
+
+
+def _signal_codes(sig: Signal, i: int) -> str:
+    kind, ch, value = str(sig.kind[i]), int(sig.channel[i]), float(sig.value[i])
+    if kind == "spindle_rpm":
+        return "M5" if value == 0 else f"{'M3' if value > 0 else 'M4'} S{_num(abs(value))}"
+    if kind == "dout" and ch == 1:
+        return "M8" if value else "M9"
+    raise DeviceError(f"GRBL cannot drive {kind} channel {ch} (only the spindle, and output 1 as flood "
+                      f"coolant M8/M9)", where=f"signal {i} at t={sig.t[i]:g} s")
+
+
+def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal | None = None,
+                 tolerance: float = 0.01) -> list[ProgramLine]:
+    """G-code lines for a trajectory or step stream (axes X, Y, Z only: GRBL's)."""
+    bad = [a for a in motion.axes if a not in ("X", "Y", "Z")]
+    if bad:
+        raise DeviceError(f"GRBL drives X, Y and Z; the program also moves {', '.join(bad)}", where="grbl")
+    if isinstance(motion, Trajectory):
+        pos, dt = np.asarray(motion.positions), motion.period
+    elif isinstance(motion, Steps):
+        pos = motion.positions()
+        if motion.tick > 0:
+            dt = motion.tick
+        else:  # untimed: as fast as the slowest moving axis allows
+            cols = [machine.names.index(a) for a in motion.axes]
+            dt = float(np.max(motion.step_mm / machine.column("vmax")[cols]))
+    else:
+        raise DeviceError(f"GRBL runs a Trajectory, Steps or G-code text, not {type(motion).__name__}", where="grbl")
+    sig = motion.signals if signals is None else motion.signals.merged(signals)
+    sig_rows = np.clip(np.ceil(np.asarray(sig.t) / dt - 1e-9).astype(int), 0, len(pos) - 1)
+    kept = decimate(pos, tolerance, keep=sig_rows)
+    lines = [ProgramLine(t, "preamble") for t in PREAMBLE]
+    start = " ".join(f"{a}{_num(v)}" for a, v in zip(motion.axes, pos[0]))
+    lines.append(ProgramLine(f"G0 {start}", "row 0"))
+    order = np.argsort(sig_rows, kind="stable")
+    s = 0
+    for prev, row in zip(kept[:-1], kept[1:]):
+        while s < len(order) and sig_rows[order[s]] <= prev:
+            lines.append(ProgramLine(_signal_codes(sig, int(order[s])), f"signal {int(order[s])}"))
+            s += 1
+        step = pos[row] - pos[prev]
+        length = float(np.linalg.norm(step))
+        seconds = (row - prev) * dt
+        if length < 1e-9:
+            if seconds >= _MIN_DWELL_S:
+                lines.append(ProgramLine(f"G4 P{_num(seconds)}", f"row {row}"))
+            continue
+        words = " ".join(f"{a}{_num(v)}" for a, v, d in zip(motion.axes, pos[row], step) if abs(d) > 0)
+        lines.append(ProgramLine(f"G1 {words} F{_num(length / seconds * 60.0)}", f"row {row}"))
+    while s < len(order):
+        lines.append(ProgramLine(_signal_codes(sig, int(order[s])), f"signal {int(order[s])}"))
+        s += 1
+    return lines
+
+
+def text_gcode(text: str, name: str = "program") -> list[ProgramLine]:
+    """Lines of G-code text as GRBL takes them: comments, blank lines and ``%`` removed, sources kept."""
+    out = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split(";", 1)[0]
+        while "(" in line and ")" in line[line.index("("):]:
+            a = line.index("(")
+            line = line[:a] + line[line.index(")", a) + 1:]
+        line = line.strip()
+        if line and line != "%":
+            out.append(ProgramLine(line, f"{name}:{number}"))
+    return out

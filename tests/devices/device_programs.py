@@ -1,0 +1,68 @@
+"""Programs and fixtures for device tests: the thesis pattern as a trajectory, straight moves, a machine
+at T = 1 ms and a GRBL protocol simulator per test.
+
+The fixtures live here, not in a conftest.py: other test folders import names from their own
+``conftest`` module, which a second conftest.py in the tree would shadow. Test modules import
+the fixtures they use from here.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flowmc.devices.grbl_sim import GrblSimulator
+from flowmc.motion.machine import Machine
+from flowmc.motion.profiles import plan_trapezoid, sample_profile
+from flowmc.motion.segment_table import path_from_rows
+from flowmc.motion.trajectory import Trajectory
+
+PATTERN = Path("/work/shared/reference/thesis_pattern.json")
+
+
+def thesis_path(feed: float = 20.0):
+    return path_from_rows(json.loads(PATTERN.read_text())["segments"], feed=feed)
+
+
+def thesis_trajectory(period: float = 0.001, feed: float = 20.0, amax: float = 200.0) -> Trajectory:
+    """The six-segment pattern, each segment a trapezoid from rest to rest (the thesis card's way)."""
+    path = thesis_path(feed)
+    pts, seg = [np.zeros((1, 3))], [np.zeros(1, dtype=int)]
+    for i, s in enumerate(path.segments):
+        along = sample_profile(plan_trapezoid(s.length, 0.0, 0.0, feed, amax), period)
+        pts.append(s.point_at(along[1:]))
+        seg.append(np.full(len(along) - 1, i))
+    return Trajectory(np.vstack(pts), period, np.concatenate(seg))
+
+
+def line_trajectory(start, end, period: float = 0.001, feed: float = 50.0, amax: float = 200.0,
+                    axes=("X", "Y", "Z")) -> Trajectory:
+    """A straight move from rest to rest."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    length = float(np.linalg.norm(end - start))
+    s = sample_profile(plan_trapezoid(length, 0.0, 0.0, feed, amax), period)
+    return Trajectory(start + np.outer(s / length, end - start), period, axes=axes)
+
+
+@pytest.fixture
+def machine() -> Machine:
+    return Machine(period=0.001)
+
+
+@pytest.fixture
+def grbl_sim():
+    """Start a GRBL protocol simulator on a pty; ``grbl_sim(**options)`` returns it, stopped after the test."""
+    started = []
+
+    def start(**options) -> GrblSimulator:
+        sim = GrblSimulator(idle_timeout=20.0, lifetime=120.0, **options)
+        sim.start()
+        started.append(sim)
+        return sim
+
+    yield start
+    for sim in started:
+        sim.stop()

@@ -1,0 +1,89 @@
+"""open_device, the backend table, the DeviceLog value, and the simulator as a command."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from flowmc.devices import card as card_module
+from flowmc.devices.card import MotionCard, known_devices, open_device, register_backend
+from flowmc.devices.log import Change, DeviceLog, Event
+from flowmc.devices.sim import SimCard
+from flowmc.errors import DeviceError
+
+from device_programs import line_trajectory, machine  # noqa: F401 (fixtures: machine)
+
+
+def test_sim_is_the_default_and_unknown_specs_list_the_known_ones(machine):
+    card = open_device()
+    assert isinstance(card, SimCard) and isinstance(card, MotionCard)
+    with pytest.raises(DeviceError, match=r"unknown device 'plc:3'; known: grbl:<serial port>, linuxcnc, sim"):
+        open_device("plc:3", machine)
+    with pytest.raises(DeviceError, match="say which serial port"):
+        open_device("grbl", machine)
+
+
+def test_linuxcnc_is_imported_only_when_asked_for(machine, monkeypatch):
+    assert "linuxcnc" in known_devices()
+    monkeypatch.setitem(card_module._LAZY_BACKENDS, "linuxcnc", "flowmc.devices.linuxcnc.not_there")
+    with pytest.raises(DeviceError, match=r"the linuxcnc backend is not installed \(flowmc.devices.linuxcnc.not_there"):
+        open_device("linuxcnc", machine)
+
+
+def test_a_registered_backend_gets_its_argument_and_options(machine, monkeypatch):
+    monkeypatch.setattr(card_module, "_BACKENDS", dict(card_module._BACKENDS))
+    monkeypatch.setattr(card_module, "_SPEC_HELP", dict(card_module._SPEC_HELP))
+    seen = {}
+
+    def factory(argument, m, **options):
+        seen.update(argument=argument, machine=m, options=options)
+        return SimCard(m)
+
+    register_backend("bench", factory, "bench:<slot>")
+    card = open_device("bench:2", machine, speed=3)
+    assert isinstance(card, SimCard)
+    assert seen == {"argument": "2", "machine": machine, "options": {"speed": 3}}
+    assert "bench:<slot>" in known_devices()
+
+
+def test_device_log_digest_and_summary(machine):
+    log = SimCard(machine).run(line_trajectory((0, 0, 0), (5, 2, 0)))
+    again = SimCard(machine).run(line_trajectory((0, 0, 0), (5, 2, 0)))
+    other = SimCard(machine).run(line_trajectory((0, 0, 0), (5, 2.0025, 0)))
+    assert log.digest() == again.digest() != other.digest()
+    summary = log.summary()
+    assert json.loads(json.dumps(summary)) == summary
+    assert summary["steps_per_axis"] == [2000, 800, 0] and summary["outcome"] == "done"
+    assert log.position.flags.writeable is False
+    assert log.steps[0].tolist() == [0, 0, 0] and np.abs(log.steps).sum() == 2800
+
+
+def test_device_log_refuses_unknown_kinds():
+    with pytest.raises(ValueError, match="unknown outcome"):
+        DeviceLog("sim", ("X",), 0.001, [0.0], [[0]], [[0.0]], outcome="fine")
+    with pytest.raises(ValueError, match="unknown change kind"):
+        DeviceLog("sim", ("X",), 0.001, [0.0], [[0]], [[0.0]], changes=[Change(0.0, "relay", 1, 1.0)])
+    log = DeviceLog("sim", ("X",), 0.001, [0.0], [[0]], [[0.0]], events=[Event("note", 0.0, "", "hello")])
+    assert log.events_of("note")[0].message == "hello"
+
+
+def test_the_grbl_simulator_runs_as_a_command_and_stops_by_itself():
+    proc = subprocess.Popen([sys.executable, "-m", "flowmc.devices.grbl_sim", "--idle-timeout", "1.5"],
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port.startswith("/dev/pts/")
+        fd = os.open(port, os.O_RDWR | os.O_NOCTTY)
+        try:
+            assert b"Grbl 1.1h" in os.read(fd, 100)
+        finally:
+            os.close(fd)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
