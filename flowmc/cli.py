@@ -87,8 +87,20 @@ def apply_sets(graph: Any, sets: list[str]) -> None:
         fields = cls.Params.model_fields
         if param not in fields:
             raise UsageError(f"{what}: node {node_id!r} ({node.type}) has no param {param!r} (params: {', '.join(fields) or 'none'})")
+        _refuse_fed_param(graph, target, what)
         port_types = {p.name: p.types[0] for p in cls.param_ports()}
         node.params[param] = parse_value(port_types.get(param), text, what)
+
+
+def _refuse_fed_param(graph: Any, target: str, what: str) -> None:
+    """A stored param that a wire or an interface input feeds would be overridden: say so, not ignore it."""
+    feeding = next((w.from_ for w in graph.wires if w.to == target), None)
+    if feeding is not None:
+        raise UsageError(f"{what}: that param is fed by the wire from {feeding}; the stored value is not used")
+    for inp in graph.interface.inputs if graph.interface else ():
+        if target in inp.to:
+            raise UsageError(f"{what}: that param is fed by the graph input {inp.name!r}; "
+                             f"use --input {inp.name}=VALUE")
 
 
 def parse_inputs(graph: Any, items: list[str]) -> dict[str, Any]:

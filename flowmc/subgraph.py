@@ -10,11 +10,11 @@ Nothing is imported or executed from a file: a sub-graph is only more nodes of k
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
 import flowmc
 from flowmc.errors import GraphError, NodeError
@@ -131,7 +131,12 @@ class Subgraph(NodeType):
 
 
 class LibraryGraph(NodeType):
-    """Base of the generated ``lib.<stem>`` types; ``file_path`` and ``lib_dir`` are set per type."""
+    """Base of the generated ``lib.<stem>`` types; ``file_path`` and ``lib_dir`` are set per type.
+
+    Scalar interface inputs (Number, Bool, Text) are params of the node, as constants on a LabVIEW
+    sub-VI's terminals are: stored in the graph file, editable in the inspector, and (like every
+    scalar param) fed by a wire when one is connected. Other inputs are data ports.
+    """
 
     category = "Library"
     Params = NoParams
@@ -139,11 +144,27 @@ class LibraryGraph(NodeType):
     lib_dir: Path
 
     @classmethod
-    def bind_site(cls, params: NoParams, site: Site, node_id: str) -> Binding:
-        return bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, site.chain), node_id)
+    def bind_site(cls, params: BaseModel, site: Site, node_id: str) -> Binding:
+        binding = bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, site.chain), node_id)
+        data = tuple(p for p in binding.ports.inputs if p.name not in cls.Params.model_fields)
+        return replace(binding, ports=Ports(data, binding.ports.outputs))
 
-    def run(self, ctx: Any, params: NoParams, **inputs: Any) -> dict[str, Any]:
-        return _run_bound(ctx, inputs, self.type_id)
+    def run(self, ctx: Any, params: BaseModel, **inputs: Any) -> dict[str, Any]:
+        return _run_bound(ctx, {**params.model_dump(), **inputs}, self.type_id)
+
+
+_SCALAR_TYPES = {"Number": float, "Bool": bool, "Text": str}
+
+
+def _split_scalars(ports: Ports, stem: str) -> tuple[type[BaseModel], Ports]:
+    """Scalar inputs become an optional-field params model; the rest stay data ports."""
+    fields = {
+        p.name: (_SCALAR_TYPES[p.type] | None, Field(None if p.default is REQUIRED else p.default, description=p.doc))
+        for p in ports.inputs if isinstance(p.type, str) and p.type in _SCALAR_TYPES
+    }
+    params = create_model(f"Lib_{stem}_Params", __config__=ConfigDict(extra="forbid"), **fields)
+    data = tuple(p for p in ports.inputs if p.name not in fields)
+    return params, Ports(data, ports.outputs)
 
 
 # ---------------------------------------------------------------- library folders
@@ -176,6 +197,7 @@ def _lib_class(path: Path, lib_dir: Path) -> type[LibraryGraph]:
         return cached[1]
     stem = path.name[: -len(SUFFIX)]
     title, description, ports = stem, f"Library graph {stem}", Ports((), ())
+    params: type[BaseModel] = NoParams
     building = path in _building  # library graphs using each other: binding reports the recursion
     _building.add(path)
     try:
@@ -183,13 +205,14 @@ def _lib_class(path: Path, lib_dir: Path) -> type[LibraryGraph]:
         title = graph.title or stem
         description = (graph.description.strip().splitlines() or [description])[0]
         if not building:
-            ports = bind_file(path, Site(lib_dir, lib_dir), "lib").ports
+            params, ports = _split_scalars(bind_file(path, Site(lib_dir, lib_dir), "lib").ports, stem)
     except GraphError:
         pass  # described without ports; using it reports the problem on the node
     finally:
         if not building:
             _building.discard(path)
-    attrs = {"type_id": f"lib.{stem}", "title": title, "description": description, "inputs": ports.inputs,
+    attrs = {"type_id": f"lib.{stem}", "title": title, "description": description, "Params": params,
+             "inputs": ports.inputs,
              "outputs": ports.outputs, "file_path": path, "lib_dir": lib_dir, "__module__": __name__}
     cls = type(f"Lib_{stem}", (LibraryGraph,), attrs)
     if not building:

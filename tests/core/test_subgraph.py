@@ -71,8 +71,25 @@ def test_library_graphs_are_types(tmp_path):
     described = {d["type_id"]: d for d in registry.describe_all(tmp_path)}
     twice = described["lib.twice"]
     assert twice["title"] == "Double" and twice["description"] == "Multiply by a factor"
-    assert [p["name"] for p in twice["inputs"]] == ["x"] and twice["outputs"][0]["doc"] == "factor * value"
+    # A scalar interface input is a param of the library node (stored, or fed by a wire).
+    assert twice["inputs"] == [] and [p["name"] for p in twice["param_inputs"]] == ["x"]
+    assert twice["outputs"][0]["doc"] == "factor * value"
     assert "lib.twice" not in {d["type_id"] for d in registry.describe_all(tmp_path / "elsewhere")}
+
+
+def test_library_node_takes_a_scalar_input_as_a_stored_param(tmp_path):
+    (tmp_path / "lib").mkdir()
+    _double(tmp_path / "lib" / "twice.flowmc.json", factor=3.0)
+    g = flowmc.GraphBuilder()
+    s = g.add("lib.twice", id="s", x=5.0)
+    g.output("out", "Number", s.y)
+    g.save(tmp_path / "stored.flowmc.json")
+    assert flowmc.run(flowmc.load(tmp_path / "stored.flowmc.json")).outputs == {"out": 15.0}
+    bad = flowmc.GraphBuilder()
+    bad.add("lib.twice", id="s", x="five")
+    bad.save(tmp_path / "bad.flowmc.json")
+    issues = flowmc.validate(flowmc.load(tmp_path / "bad.flowmc.json"))
+    assert [(i.code, i.location) for i in issues] == [("invalid-param", ("nodes", "s", "params", "x"))]
 
 
 def test_interface_input_without_default_is_required_only_when_it_feeds_a_required_input(tmp_path):
