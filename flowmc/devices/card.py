@@ -1,6 +1,7 @@
 """The one motion-card interface, and ``open_device`` that picks a backend from a spec string.
 
-Specs: ``"sim"`` (the simulated 6050 card, the default), ``"grbl:<serial port>"`` and ``"linuxcnc"``
+Specs: ``"sim"`` (the simulated 6050 card, the default), ``"grbl:<serial port>"``, ``"grbl-sim"`` (the
+GRBL streamer against the protocol simulator) and ``"linuxcnc"``
 (or ``"linuxcnc:<argument>"``). Backends are factories in a small table; ``register_backend`` adds
 one. The LinuxCNC backend lives in ``flowmc.devices.linuxcnc.backend`` and is imported only when a
 ``linuxcnc`` spec is opened; that module provides ``open_card(argument, machine, **options)``
@@ -70,6 +71,13 @@ class MotionCard(ABC):
     def estop(self) -> DeviceLog:
         """Stop every axis at once and latch the stop."""
 
+    def reset(self) -> DeviceLog:
+        """Clear a latched e-stop or alarm once its cause is gone (DeviceError while it is not).
+
+        Backends that latch override this; the default says the device has no reset.
+        """
+        raise DeviceError(f"{type(self).__name__} has no reset", where=self.spec or "device")
+
     @abstractmethod
     def set_output(self, channel: int, on: bool) -> DeviceLog:
         """Set digital output ``channel`` (from 1)."""
@@ -125,8 +133,9 @@ def _open_grbl(argument: str, machine: Machine, **options) -> MotionCard:
 
 
 _BACKENDS: dict[str, Factory] = {"sim": _open_sim, "grbl": _open_grbl}
-_LAZY_BACKENDS: dict[str, str] = {"linuxcnc": "flowmc.devices.linuxcnc.backend"}
-_SPEC_HELP = {"sim": "sim", "grbl": "grbl:<serial port>", "linuxcnc": "linuxcnc"}
+_LAZY_BACKENDS: dict[str, str] = {"linuxcnc": "flowmc.devices.linuxcnc.backend",
+                                   "grbl-sim": "flowmc.devices.grbl_sim_card"}
+_SPEC_HELP = {"sim": "sim", "grbl": "grbl:<serial port>", "grbl-sim": "grbl-sim", "linuxcnc": "linuxcnc"}
 
 
 def register_backend(name: str, factory: Factory, help: str | None = None) -> None:
