@@ -22,10 +22,22 @@ from device_programs import line_trajectory, machine  # noqa: F401 (fixtures: ma
 def test_sim_is_the_default_and_unknown_specs_list_the_known_ones(machine):
     card = open_device()
     assert isinstance(card, SimCard) and isinstance(card, MotionCard)
-    with pytest.raises(DeviceError, match=r"unknown device 'plc:3'; known: grbl:<serial port>, linuxcnc, sim"):
+    with pytest.raises(DeviceError, match=r"unknown device 'plc:3'; known: grbl:<serial port>, grbl-sim, linuxcnc, sim"):
         open_device("plc:3", machine)
     with pytest.raises(DeviceError, match="say which serial port"):
         open_device("grbl", machine)
+    with pytest.raises(DeviceError, match="'grbl-sim' takes no argument"):
+        open_device("grbl-sim:/dev/ttyUSB0", machine)
+
+
+def test_grbl_sim_streams_through_the_real_serial_code_and_stops_its_simulator(machine):
+    with open_device("grbl-sim", machine) as card:
+        simulator = card.simulator
+        log = card.run("G21 G90\nG1 X10 Y5 F600\nG0 X0 Y5\n")
+        assert log.device == "grbl-sim" and log.outcome == "done"
+        assert simulator.received == ["G21 G90", "G1 X10 Y5 F600", "G0 X0 Y5"]
+        assert simulator.mpos[:2] == [0.0, 5.0]
+    assert simulator._thread is not None and not simulator._thread.is_alive()
 
 
 def test_linuxcnc_is_imported_only_when_asked_for(machine, monkeypatch):
