@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from flowmc.devices.card import MotionCard
-from flowmc.devices.grbl_program import ProgramLine, motion_gcode, text_gcode
+from flowmc.devices.grbl_program import PEN_COMMANDS, ProgramLine, check_pen_commands, motion_gcode, text_gcode
 from flowmc.devices.log import DeviceLog, Event
 from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CardRanges
@@ -282,14 +282,19 @@ class GrblStreamer:
 
 
 class GrblCard(MotionCard):
-    """A GRBL board on a serial port as a MotionCard (axes X, Y, Z)."""
+    """A GRBL board on a serial port as a MotionCard (axes X, Y, Z).
+
+    ``pen``: the (down, up) commands a program's tool signal becomes (default M3 S1000 / M5, the pen
+    on the spindle output as GRBL plotters have it), or None to send none.
+    """
 
     def __init__(self, port: str, machine: Machine | None = None, *, baud: int = 115200, tolerance: float = 0.01,
-                 timeout: float = 10.0, poll: float = 0.2):
+                 timeout: float = 10.0, poll: float = 0.2, pen: tuple[str, str] | None = None):
         self.machine = machine if machine is not None else Machine()
         self.spec = f"grbl:{port}"
         self.ranges = GRBL_RANGES
         self.tolerance = tolerance
+        self.pen = check_pen_commands(pen)
         self.streamer = GrblStreamer(port, baud, timeout=timeout, poll=poll)
         self._outputs = [False]
 
@@ -310,7 +315,7 @@ class GrblCard(MotionCard):
                          list(st.events) + list(events), outcome,
                          {"device": "grbl", "acknowledged": st.acked, "sent": st.sent})
 
-    def _stream(self, lines: list[ProgramLine]) -> DeviceLog:
+    def _stream(self, lines: list[ProgramLine], events=()) -> DeviceLog:
         try:
             st = self.streamer.stream(lines)
         except DeviceError as err:
@@ -318,8 +323,8 @@ class GrblCard(MotionCard):
             if st is not None:
                 err.log = self._log(st, "alarm" if "ALARM" in err.message else "error")
             raise
-        return self._log(st, "done", [Event("done", st.reports[-1][0] if st.reports else 0.0, "",
-                                            f"{st.acked} lines acknowledged")])
+        return self._log(st, "done", [*events, Event("done", st.reports[-1][0] if st.reports else 0.0, "",
+                                                     f"{st.acked} lines acknowledged")])
 
     def run(self, motion: Trajectory | Steps | str, signals: Signal | None = None, *, check: bool = True) -> DeviceLog:
         """Stream a program; ``motion`` may also be G-code text (sent as written, after comments are removed)."""
@@ -327,7 +332,7 @@ class GrblCard(MotionCard):
             return self._stream(text_gcode(motion))
         if check:
             preflight(motion, self.machine, signals, ranges=self.ranges)
-        return self._stream(motion_gcode(motion, self.machine, signals, self.tolerance))
+        return self._stream(motion_gcode(motion, self.machine, signals, self.tolerance, self.pen))
 
     def home(self, axes: tuple[str, ...] | None = None, method: str = "switch") -> DeviceLog:
         if method != "switch":
@@ -344,6 +349,12 @@ class GrblCard(MotionCard):
     def estop(self) -> DeviceLog:
         self.streamer.soft_reset()
         return self._log(Stream(), "estop", [Event("estop", 0.0, "", "soft reset (Ctrl-X): GRBL stopped")])
+
+    def reset(self) -> DeviceLog:
+        """Soft reset (Ctrl-X), then ``$X`` to unlock an alarm (GRBL refuses G-code until then)."""
+        self.streamer.soft_reset()
+        return self._stream([ProgramLine("$X", "unlock")],
+                            [Event("reset", 0.0, "", "soft reset and $X: alarm lock cleared")])
 
     def set_output(self, channel: int, on: bool) -> DeviceLog:
         if channel != 1:

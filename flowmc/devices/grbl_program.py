@@ -7,12 +7,20 @@ planned slow-down survives. Where the trajectory stands still the gap becomes a 
 step stream (the linkage pulse table) becomes the positions it steps through, thinned the same way.
 
 Signals become M-codes before the move that starts at their time: ``spindle_rpm`` -> M3/M4 S or M5,
-digital output 1 -> M8/M9 (GRBL's flood-coolant pin, the usual relay for a pen or air valve).
-GRBL has no other outputs that flowmc can drive; other signals are refused, naming the signal.
+digital output 1 -> M8/M9 (GRBL's flood-coolant pin, the usual relay for a pen or air valve), and
+the tool (pen) state -> a pair of commands when a pen is configured (``pen=PEN_COMMANDS`` =
+("M3 S1000", "M5") for down and up: the usual GRBL pen plotter drives its pen servo or solenoid from
+the spindle PWM output, M3 S<power> down, M5 up). Without a pen (the default, as on a mill, where a
+rapid does not lift anything) tool events are not sent. A program with tool events starts with the tool up: the up command
+follows the preamble, before the move to the start. With commands that use the spindle, a program
+that also sets the spindle is refused (one would overwrite the other). GRBL has no other outputs that flowmc can drive; other signals
+are refused, naming the signal. A step stream's signal times are in ticks when it is untimed (the
+``Steps`` convention).
 """
 
 from __future__ import annotations
 
+import re
 from typing import NamedTuple
 
 import numpy as np
@@ -21,9 +29,12 @@ from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["ProgramLine", "motion_gcode", "text_gcode", "decimate"]
+__all__ = ["ProgramLine", "motion_gcode", "text_gcode", "decimate", "PEN_COMMANDS", "check_pen_commands"]
 
 PREAMBLE = ("G21", "G90", "G94")  # millimetres, absolute, feed per minute
+#: Tool (pen) down and up: the spindle output as GRBL pen plotters wire it.
+PEN_COMMANDS = ("M3 S1000", "M5")
+_SPINDLE_WORD = re.compile(r"(?:^|[^A-Z])(?:M0*[345](?!\d)|S)", re.IGNORECASE)
 _MIN_DWELL_S = 0.001
 
 
@@ -68,8 +79,23 @@ def decimate(points: np.ndarray, tolerance: float, keep=()) -> np.ndarray:
     return np.array(sorted(kept))
 
 
-def _signal_codes(sig: Signal, i: int) -> str:
+def check_pen_commands(pen) -> tuple[str, str] | None:
+    """The (down, up) tool commands, checked: one printable line each; None (no pen) passes as None."""
+    if pen is None:
+        return None
+    if len(pen) != 2:
+        raise DeviceError(f"pen commands are a (down, up) pair, got {pen!r}", where="grbl")
+    for name, text in zip(("down", "up"), pen):
+        if not isinstance(text, str) or not text.strip() or not text.isprintable() or not text.isascii():
+            raise DeviceError(f"pen {name} command must be one line of G-code, got {text!r}", where="grbl")
+    return pen[0].strip(), pen[1].strip()
+
+
+def _signal_codes(sig: Signal, i: int, pen: tuple[str, str] | None) -> str:
+    """The line for signal ``i``; "" for a tool signal when there is no pen."""
     kind, ch, value = str(sig.kind[i]), int(sig.channel[i]), float(sig.value[i])
+    if kind == "tool":
+        return "" if pen is None else pen[0] if value else pen[1]
     if kind == "spindle_rpm":
         return "M5" if value == 0 else f"{'M3' if value > 0 else 'M4'} S{_num(abs(value))}"
     if kind == "dout" and ch == 1:
@@ -79,8 +105,12 @@ def _signal_codes(sig: Signal, i: int) -> str:
 
 
 def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal | None = None,
-                 tolerance: float = 0.01) -> list[ProgramLine]:
-    """G-code lines for a trajectory or step stream (axes X, Y, Z only: GRBL's)."""
+                 tolerance: float = 0.01, pen: tuple[str, str] | None = None) -> list[ProgramLine]:
+    """G-code lines for a trajectory or step stream (axes X, Y, Z only: GRBL's).
+
+    ``pen``: the (down, up) commands for tool signals, or None to send none.
+    """
+    pen = check_pen_commands(pen)
     bad = [a for a in motion.axes if a not in ("X", "Y", "Z")]
     if bad:
         raise DeviceError(f"GRBL drives X, Y and Z; the program also moves {', '.join(bad)}", where="grbl")
@@ -96,17 +126,27 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
     else:
         raise DeviceError(f"GRBL runs a Trajectory, Steps or G-code text, not {type(motion).__name__}", where="grbl")
     sig = motion.signals if signals is None else motion.signals.merged(signals)
-    sig_rows = np.clip(np.ceil(np.asarray(sig.t) / dt - 1e-9).astype(int), 0, len(pos) - 1)
+    kinds = set(sig.kind.tolist())
+    if pen is not None and {"tool", "spindle_rpm"} <= kinds and any(_SPINDLE_WORD.search(c) for c in pen):
+        i = int(np.flatnonzero(sig.kind == "tool")[0])
+        raise DeviceError(f"the program sets the spindle and lifts and lowers the tool, whose commands "
+                          f"({pen[0]!r} / {pen[1]!r}) drive the spindle too; give the pen commands that do not "
+                          f"(e.g. M8 / M9) or none", where=f"signal {i} at t={sig.t[i]:g}")
+    per_row = dt if not (isinstance(motion, Steps) and motion.tick <= 0) else 1.0  # untimed: ticks
+    sig_rows = np.clip(np.ceil(np.asarray(sig.t) / per_row - 1e-9).astype(int), 0, len(pos) - 1)
     kept = decimate(pos, tolerance, keep=sig_rows)
     lines = [ProgramLine(t, "preamble") for t in PREAMBLE]
+    if pen is not None and "tool" in kinds:  # a program's tool starts up, before the move to its start
+        lines.append(ProgramLine(pen[1], "preamble (tool up)"))
     start = " ".join(f"{a}{_num(v)}" for a, v in zip(motion.axes, pos[0]))
     lines.append(ProgramLine(f"G0 {start}", "row 0"))
-    order = np.argsort(sig_rows, kind="stable")
-    s = 0
+    codes: dict[int, list[ProgramLine]] = {}  # row -> signal lines (every signal row is a kept point)
+    for i in np.argsort(sig_rows, kind="stable"):
+        code = _signal_codes(sig, int(i), pen)
+        if code:
+            codes.setdefault(int(sig_rows[i]), []).append(ProgramLine(code, f"signal {int(i)}"))
     for prev, row in zip(kept[:-1], kept[1:]):
-        while s < len(order) and sig_rows[order[s]] <= prev:
-            lines.append(ProgramLine(_signal_codes(sig, int(order[s])), f"signal {int(order[s])}"))
-            s += 1
+        lines += codes.get(int(prev), [])
         step = pos[row] - pos[prev]
         length = float(np.linalg.norm(step))
         seconds = (row - prev) * dt
@@ -116,9 +156,7 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
             continue
         words = " ".join(f"{a}{_num(v)}" for a, v, d in zip(motion.axes, pos[row], step) if abs(d) > 0)
         lines.append(ProgramLine(f"G1 {words} F{_num(length / seconds * 60.0)}", f"row {row}"))
-    while s < len(order):
-        lines.append(ProgramLine(_signal_codes(sig, int(order[s])), f"signal {int(order[s])}"))
-        s += 1
+    lines += codes.get(int(kept[-1]), [])
     return lines
 
 

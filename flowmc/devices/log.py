@@ -16,8 +16,9 @@ from flowmc.motion.values import array_digest, frozen_array
 
 __all__ = ["Change", "Event", "DeviceLog", "CHANGE_KINDS", "OUTCOMES"]
 
-#: Kinds of I/O change: digital input/output bit, PWM frequency (Hz) and duty (%), DA volts, spindle rpm.
-CHANGE_KINDS = ("din", "dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm")
+#: Kinds of I/O change: digital input/output bit, PWM frequency (Hz) and duty (%), DA volts, spindle rpm,
+#: and the tool (pen) state, 1 down / 0 up (besides the output that carries it, as the spindle's are).
+CHANGE_KINDS = ("din", "dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm", "tool")
 
 #: How an operation ended. ``done``: as commanded; the rest name what stopped it.
 OUTCOMES = ("done", "limit", "soft_limit", "estop", "error", "alarm", "home_failed")
@@ -33,7 +34,7 @@ class Change(NamedTuple):
 
 
 class Event(NamedTuple):
-    """Something worth telling: ``kind`` in limit, soft_limit, estop, home, approach, error, alarm, hold, ..."""
+    """Something worth telling: ``kind`` in limit, soft_limit, estop, reset, home, approach, error, alarm, hold, ..."""
 
     kind: str
     t: float

@@ -9,11 +9,14 @@ Checked, per axis: soft limits; velocity (|dp|/T <= vmax); acceleration (|d2p|/T
 1 % slack for sampling, as the reference README measures it); step rate (pulses per period / T
 <= max_step_rate, counting pulses the way the card does: by rounding positions to steps). Signals:
 digital output channels and levels, PWM frequency and duty, DA volts and spindle rpm against the
-card's ranges, and that the shared PWM/DA terminal is set for what the program uses.
+card's ranges, the tool (pen) state being 0 or 1, and that the shared PWM/DA terminal is set for
+what the program uses.
 
 Step streams (``Steps``) are checked for soft limits and, when timed, for step rate and velocity
 over windows of one period; their sampled acceleration is pulse quantisation noise and is not
-checked. Untimed streams are paced by the device, so only their soft limits are checked here.
+checked. Untimed streams are paced by the device, so only their soft limits are checked here; they
+have no seconds, so their signal times are tick indices (the ``Steps`` convention) and a violation
+is reported ``at tick N``.
 """
 
 from __future__ import annotations
@@ -76,11 +79,15 @@ def program_signals(motion, signals: Signal | None) -> Signal:
 
 
 class _Found:
-    """The earliest violation seen so far: row, then a message to build if it wins."""
+    """The earliest violation seen so far: row, then a message to build if it wins.
 
-    def __init__(self):
+    ``ticks``: the program is an untimed step stream, whose times are tick indices.
+    """
+
+    def __init__(self, ticks: bool = False):
         self.row = None
         self.build = None
+        self.ticks = ticks
 
     def offer(self, row: int, build) -> None:
         if self.row is None or row < self.row:
@@ -100,8 +107,9 @@ def _fmt(x: float) -> str:
     return f"{x:,.6g}" if abs(x) >= 1e3 else f"{x:.6g}"
 
 
-def _raise(segment: int, t: float, message: str, **details) -> None:
-    err = LimitError(f"{message} at t={t:.3f} s", where=f"segment {segment}")
+def _raise(segment: int, t: float, message: str, ticks: bool = False, **details) -> None:
+    at = f"at tick {t:g}" if ticks else f"at t={t:.3f} s"
+    err = LimitError(f"{message} {at}", where=f"segment {segment}")
     err.details = {"segment": segment, "t": t, **details}
     raise err
 
@@ -130,7 +138,7 @@ def preflight(motion, machine: Machine, signals: Signal | None = None, *, ranges
         v, a, rate = _check_dynamics(found, pos, period, cols, machine, seg, rows_t, motion.axes, accel_slack)
     elif isinstance(motion, Steps):
         rows_t, seg, pos, period, cols = _steps_rows(motion, machine)
-        found = _Found()
+        found = _Found(ticks=motion.tick <= 0)
         _check_travel(found, pos, cols, machine, seg, rows_t, motion.axes)
         v, rate = _check_pulses(found, motion, cols, machine, seg, rows_t)
         a = np.zeros(len(cols))
@@ -140,8 +148,8 @@ def preflight(motion, machine: Machine, signals: Signal | None = None, *, ranges
     _check_signals(found, sig, ranges, rows_t, seg)
     if found.row is not None:
         found.build()
-    return PreflightReport(tuple(motion.axes), float(rows_t[-1]) if len(rows_t) else 0.0,
-                           pos.min(axis=0), pos.max(axis=0), v, a, rate, len(sig))
+    duration = float(rows_t[-1]) if len(rows_t) and not found.ticks else 0.0
+    return PreflightReport(tuple(motion.axes), duration, pos.min(axis=0), pos.max(axis=0), v, a, rate, len(sig))
 
 
 def _trajectory_rows(tr: Trajectory, machine: Machine):
@@ -167,7 +175,7 @@ def _steps_rows(st: Steps, machine: Machine):
                           f"machine's is {step_mm[c]} mm", where="pre-flight")
     pos = st.positions()
     seg = np.concatenate([st.segment[:1], st.segment]) if len(st) else np.zeros(1, dtype=int)
-    rows_t = np.arange(len(pos)) * st.tick
+    rows_t = np.arange(len(pos)) * (st.tick if st.tick > 0 else 1.0)  # untimed: tick indices
     return rows_t, seg, pos, st.tick, cols
 
 
@@ -180,7 +188,7 @@ def _check_travel(found: _Found, pos, cols, machine: Machine, seg, rows_t, axes)
             r, c = hit
             found.offer(r, lambda r=r, c=c, bound=bound, word=word: _raise(
                 int(seg[r]), float(rows_t[r]),
-                f"{axes[c]} = {_fmt(pos[r, c])} mm beyond soft limit {word} {_fmt(bound[c])} mm",
+                f"{axes[c]} = {_fmt(pos[r, c])} mm beyond soft limit {word} {_fmt(bound[c])} mm", found.ticks,
                 axis=axes[c], value=float(pos[r, c]), limit=float(bound[c])))
 
 
@@ -235,7 +243,7 @@ def _check_pulses(found: _Found, st: Steps, cols, machine: Machine, seg, rows_t)
     return vel.max(axis=0), rate.max(axis=0)
 
 
-_SINGLE = ("pwm_freq", "pwm_duty", "da", "spindle_rpm")
+_SINGLE = ("pwm_freq", "pwm_duty", "da", "spindle_rpm", "tool")
 
 
 def _check_signals(found: _Found, sig: Signal, ranges: CardRanges, rows_t, seg) -> None:
@@ -259,6 +267,8 @@ def _check_signals(found: _Found, sig: Signal, ranges: CardRanges, rows_t, seg) 
          lambda i: f"digital output {ch[i]} does not exist (outputs 1-{ranges.outputs})"),
         (is_("dout") & ~np.isin(val, (0.0, 1.0)),
          lambda i: f"digital output {ch[i]} set to {_fmt(val[i])}, not 0 or 1"),
+        (is_("tool") & ~np.isin(val, (0.0, 1.0)),
+         lambda i: f"tool set to {_fmt(val[i])}, not 1 (down) or 0 (up)"),
         (np.isin(kind, _SINGLE) & ~np.isin(ch, (0, 1)),
          lambda i: f"{kind[i]} channel {ch[i]}: the card has one (channel 1)"),
         (is_("pwm_freq") & ((val < pwm_lo) | (val > pwm_hi)),
@@ -282,5 +292,5 @@ def _check_signals(found: _Found, sig: Signal, ranges: CardRanges, rows_t, seg) 
             i = int(idx[0])
             r = int(row[i])
             found.offer(r, lambda i=i, r=r, text=text: _raise(
-                int(seg[r]), float(t[i]) if np.isfinite(t[i]) else 0.0, text(i),
+                int(seg[r]), float(t[i]) if np.isfinite(t[i]) else 0.0, text(i), found.ticks,
                 axis="", value=float(val[i]), limit=None, signal=int(i)))

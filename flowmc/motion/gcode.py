@@ -27,7 +27,8 @@ What a program becomes:
 - M62/M63/M67 changes ride on the next move's ``outputs``/``analog``. M64/M65/M68 happen when
   reached, i.e. after the moves before them have finished: they ride on the next G4 dwell if one
   comes before the next move, or else on a zero-second Dwell placed at that point. Changes left
-  over at the end go on a final zero-second Dwell, so nothing is lost.
+  over at the end, and a spindle change after the last move, go on a final zero-second Dwell, so
+  nothing is lost.
 - F is turned into mm/s with the units in force when it is read (an F on a G20 line is read
   before the G20, as in LinuxCNC) and keeps its speed across later G20/G21.
 - Arcs given by I/J/K must end on their circle: LinuxCNC refuses a radius difference over
@@ -739,6 +740,10 @@ def _assemble(prog, n, mi, end, ai_local, centre, a_normal, turns, mode, feed, v
             slot[0][int(val["P"][line])] = code in (62, 64)
         else:
             slot[1][int(val["E"][line])] = float(val["Q"][line])
+
+    # A spindle change after the last move (M5 before M2) is kept too: the end dwell carries it.
+    if m and spindle[n - 1] != spindle[mi[-1]]:
+        leftover = (leftover or ({}, {}, n - 1))[:2] + (n - 1,)
 
     # Order: per line, 3*line (zero dwell), 3*line + 1 (G4 dwell), 3*line + 2 (move); end dwell last.
     zero_lines = sorted(line for kind, line in at_once if kind == "zero")

@@ -12,6 +12,10 @@ never accumulates. What each kind becomes (the XY projection; Z is not stepped h
 * Anything else (NURBS, rotated ellipses, arcs in XZ/YZ): chords within ``chord_tol``, each a line.
 * Dwell: no steps.
 
+The path's I/O (outputs, analog, spindle, and the tool/pen state) goes on ``Steps.signals`` by the one
+rule in ``flowmc.motion.signals``: each change just before its segment's first step, at ``row * tick``
+seconds, or at ``row`` (a tick index) when the stream is untimed.
+
 A curve ends at the grid point nearest its end's projection onto the step-unit curve; where that
 is not the grid point nearest the programmed end (the centre was snapped), a short line closes it.
 """
@@ -25,6 +29,7 @@ import numpy as np
 from flowmc.errors import PathError
 from flowmc.motion import stepinterp
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, Path
+from flowmc.motion.signals import path_signals, step_start_times
 from flowmc.motion.trajectory import Steps
 
 __all__ = ["path_to_steps", "METHODS"]
@@ -157,7 +162,8 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
 
     ``method`` is "pbp" (point-by-point comparison) or "dda"; ``bits`` and ``preset`` set the DDA
     register (None: sized per move). ``chord_tol`` (mm, default half the smaller step) is the
-    chord tolerance for curves cut into chords; ``tick`` is the time per row (0: untimed).
+    chord tolerance for curves cut into chords; ``tick`` is the time per row (0: untimed). The
+    path's I/O changes are the stream's ``signals`` (times in ticks when untimed).
     """
     step = np.broadcast_to(np.asarray(step_mm, dtype=float), (2,)).copy()
     if not np.all(np.isfinite(step) & (step > 0)):
@@ -182,4 +188,6 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
             cur = (int(st.end[0]), int(st.end[1]))
     steps = np.concatenate(blocks) if blocks else np.zeros((0, 2), dtype=np.int8)
     segment = np.concatenate(labels) if labels else np.zeros(0, dtype=np.int64)
-    return Steps(steps, step, np.array(origin, dtype=float) * step, tick=tick, segment=segment, axes=("X", "Y"))
+    signals = path_signals(path, step_start_times(segment, tick, len(path)))
+    return Steps(steps, step, np.array(origin, dtype=float) * step, tick=tick, segment=segment, axes=("X", "Y"),
+                 signals=signals)

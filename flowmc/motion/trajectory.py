@@ -10,13 +10,19 @@ from flowmc.motion.values import array_digest, frozen_array
 
 __all__ = ["Signal", "Trajectory", "Steps", "SIGNAL_KINDS"]
 
-#: Kinds of signal event: digital output bit, PWM frequency (Hz) and duty (%), DA volts, spindle rpm.
-SIGNAL_KINDS = ("dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm")
+#: Kinds of signal event: digital output bit, PWM frequency (Hz) and duty (%), DA volts, spindle rpm, and
+#: the tool (pen) state: value 1 = tool down, 0 = up, channel 0 (there is one). A device decides what the
+#: tool drives (the simulated card: a digital output; GRBL: a pair of commands).
+SIGNAL_KINDS = ("dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm", "tool")
 
 
 @dataclass(frozen=True, eq=False)
 class Signal:
-    """Digital, PWM and analog events over time, sorted by time: at ``t[i]`` set ``kind[i]``/``channel[i]`` to ``value[i]``."""
+    """Digital, PWM and analog events over time, sorted by time: at ``t[i]`` set ``kind[i]``/``channel[i]`` to ``value[i]``.
+
+    ``t`` is in seconds, except for the signals of an untimed step stream (``Steps.tick == 0``),
+    where it counts ticks: ``t = i`` is just before the stream's row ``i`` (see ``Steps``).
+    """
 
     t: np.ndarray
     kind: np.ndarray
@@ -134,6 +140,11 @@ class Steps:
     ``origin`` is the position (mm) before the first step and ``step_mm`` each axis's pulse
     equivalent, so position after tick k is ``origin + cumsum(steps)[k] * step_mm``. ``tick`` is
     the time per row in seconds, or 0 when the stream is untimed (a device paces it).
+
+    ``signals`` happen between steps: an event at ``t = i * tick`` comes just before row ``i`` (after
+    ``i`` steps; ``i == len(steps)`` is after the last). An untimed stream has no seconds, so its
+    signal times are tick indices: ``t = i``. Extra signals sent with an untimed stream (a device's
+    ``run(steps, signals)``) are read the same way.
     """
 
     steps: np.ndarray
@@ -185,4 +196,5 @@ class Steps:
             "origin": self.origin.round(6).tolist(),
             "end": end.round(6).tolist(),
             "tick_s": self.tick,
+            "signal_events": len(self.signals),
         }

@@ -2,9 +2,10 @@
 
 Signal nodes (Digital I/O, PWM, Analog/spindle) do not touch a device: they add events at times or
 at segment starts of a program, chained from node to node, for Card output to send with the program
-(or "I/O now" to set at once). Device nodes are not pure (never cached). Their optional ``after``
-input takes the log of an earlier device node: it orders the two, and the simulated card carries on
-from the state that log ends in (where homing left the axes, which outputs are on).
+(or "I/O now" to set at once). With an untimed step stream, event times count ticks (the ``Steps``
+convention). Device nodes are not pure (never cached). Their optional ``after`` input takes the log
+of an earlier device node: it orders them (Home, Jog, then Card output), and the simulated card
+carries on from the state that log ends in (where homing left the axes, which outputs are on).
 """
 
 from __future__ import annotations
@@ -64,11 +65,17 @@ def _machine_for(machine: Machine | None, motion=None) -> Machine:
 def _open(params: _DeviceParams, machine: Machine, after: DeviceLog | None):
     """Open the device; the simulated card starts from ``after``'s end state when that came from one."""
     options = {}
-    if params.device == "sim":
+    name = params.device.partition(":")[0]
+    if name == "sim":
         options = {"closed_loop": params.closed_loop, "estop_input": params.estop_input or None,
                    "analog": params.analog}
+        if isinstance(params, CardOutputParams):
+            options["pen_output"] = params.pen_output or None
         if after is not None and after.state.get("device") == "sim":
             options["state"] = after.state
+    elif name in ("grbl", "grbl-sim") and isinstance(params, CardOutputParams):
+        pen = (params.grbl_pen_down.strip(), params.grbl_pen_up.strip())
+        options["pen"] = pen if any(pen) else None
     return open_device(params.device, machine, **options)
 
 
@@ -126,7 +133,15 @@ class PreflightNode(NodeType):
         return {"report": report.table(machine)}
 
 
-# ---------------------------------------------------------------- card output and homing
+# ---------------------------------------------------------------- card output, homing and jogging
+
+class CardOutputParams(_DeviceParams):
+    pen_output: Annotated[int, Field(ge=0, le=8, description="Simulated card: digital output the program's "
+                                                             "tool (pen) state drives, on = down (0: none, as on a mill)")] = 0
+    grbl_pen_down: Annotated[str, Field(description="GRBL: command for tool (pen) down (the pen on the "
+                                                    "spindle output, e.g. M3 S1000; empty: no pen)")] = ""
+    grbl_pen_up: Annotated[str, Field(description="GRBL: command for tool (pen) up, e.g. M5")] = ""
+
 
 @register
 class CardOutput(NodeType):
@@ -135,11 +150,11 @@ class CardOutput(NodeType):
     category = "Devices"
     description = "Check a program (pre-flight), send it to a motion card, and return what the card did."
     pure = False
-    Params = _DeviceParams
+    Params = CardOutputParams
     inputs = (_MOTION_IN, _SIGNALS_IN, _MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def run(self, ctx, params: _DeviceParams, motion, signals=None, machine=None, after=None):
+    def run(self, ctx, params: CardOutputParams, motion, signals=None, machine=None, after=None):
         machine = _machine_for(machine, motion)
         with _open(params, machine, after) as card:
             card.check(motion, signals)
@@ -178,6 +193,36 @@ class Home(NodeType):
         return {"log": log}
 
 
+class JogParams(_DeviceParams):
+    axis: Annotated[str, Field(min_length=1, description="The axis to jog, e.g. X")] = "X"
+    distance: Annotated[float, Field(description="How far, signed", json_schema_extra={"unit": "mm"})] = 10.0
+    speed: Annotated[float, Field(gt=0, description="Top speed (the move ramps at the axis's amax)",
+                                  json_schema_extra={"unit": "mm/s"})] = 10.0
+
+
+@register
+class Jog(NodeType):
+    type_id = "device.jog"
+    title = "Jog"
+    category = "Devices"
+    description = "Move one axis of a device by a distance at a speed (e.g. to set the table before drawing)."
+    pure = False
+    Params = JogParams
+    inputs = (_MACHINE_IN, _AFTER_IN)
+    outputs = (_LOG_OUT,)
+
+    def run(self, ctx, params: JogParams, machine=None, after=None):
+        machine = _machine_for(machine)
+        axis = params.axis.strip().upper()
+        with _open(params, machine, after) as card:
+            log = card.jog(axis, params.distance, params.speed)
+        _report(ctx, log)
+        if log.outcome != "done":
+            raise NodeError(f"the jog of {axis} ended with {log.outcome}: "
+                            + "; ".join(e.message for e in log.events))
+        return {"log": log}
+
+
 # ---------------------------------------------------------------- signals along a program
 
 class _At(_Params):
@@ -198,7 +243,8 @@ class ValueChange(_At):
 
 class _SignalParams(_Params):
     at: Annotated[Literal["time", "segment"],
-                  Field(description="Changes happen at a time (s) or at the start of a program segment")] = "time"
+                  Field(description="Changes happen at a time (s; ticks with an untimed step stream) or at "
+                                    "the start of a program segment")] = "time"
 
 
 def _times(at: str, points: list[float], motion) -> np.ndarray:
@@ -209,7 +255,7 @@ def _times(at: str, points: list[float], motion) -> np.ndarray:
     if not isinstance(motion, (Trajectory, Steps)):
         raise NodeError("changes at segments need the program: wire it to 'motion'")
     seg = np.asarray(motion.segment)
-    dt = motion.period if isinstance(motion, Trajectory) else motion.tick
+    dt = motion.period if isinstance(motion, Trajectory) else motion.tick or 1.0  # untimed steps: ticks
     times = []
     for k in points:
         rows = np.flatnonzero(seg == int(k))
@@ -311,6 +357,8 @@ class IONow(NodeType):
         machine = _machine_for(machine)
         sig = signals if signals is not None else Signal()
         kinds = sig.kind.tolist()
+        if "tool" in kinds:
+            raise NodeError("a tool (pen) event goes with a program: send it with Card output")
         if "pwm_duty" in kinds and "pwm_freq" not in kinds[:kinds.index("pwm_duty")]:
             raise NodeError("a PWM duty needs a PWM frequency before it (use the PWM node)")
         changes, events = [], []

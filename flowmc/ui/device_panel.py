@@ -39,7 +39,8 @@ class DevicePanel:
     ``machine_provider``: the Machine to open the device with (a Machine, a function returning the
     editor's current one, or None for the default). ``on_log(log)`` receives the DeviceLog of every
     operation (for the 3D view). Public handles: ``spec``, ``connect_button``, ``home_button``,
-    ``step``, ``speed``, ``jog`` (per axis), ``estop_button``, ``outputs``, ``pwm_freq``, ``pwm_duty``,
+    ``step``, ``speed``, ``jog`` (per axis), ``estop_button``, ``reset_button`` (enabled after an
+    e-stop: clears the latch, ``MotionCard.reset``), ``outputs``, ``pwm_freq``, ``pwm_duty``,
     ``pwm_button``, ``status`` and the messages ``connection_msg``, ``motion_msg``, ``output_msg``, ``pwm_msg``.
     """
 
@@ -81,11 +82,13 @@ class DevicePanel:
     def _build_motion(self) -> None:
         gui = self.gui
         self.estop_button = gui.add_button("E-STOP", color="red", icon=viser.Icon.HAND_STOP, disabled=True)
+        self.reset_button = gui.add_button("Reset", icon=viser.Icon.REFRESH, disabled=True)
         self.home_button = gui.add_button("Home all", icon=viser.Icon.HOME, disabled=True)
         self.step = gui.add_number("Jog step (mm)", 1.0, min=0.0001, step=0.01)
         self.speed = gui.add_number("Jog speed (mm/s)", 10.0, min=0.001, step=0.1)
         self.motion_msg = gui.add_markdown("")
         self.estop_button.on_click(lambda _: self.estop())
+        self.reset_button.on_click(lambda _: self.reset())
         self.home_button.on_click(lambda _: self.home())
 
     def _build_jog(self, axes: tuple[str, ...]) -> None:
@@ -170,6 +173,7 @@ class DevicePanel:
         n_out = min(self.card.ranges.outputs, N_OUTPUT_TOGGLES) if on and self.card else 0
         self.connect_button.disabled, self.disconnect_button.disabled = on, not on
         self.home_button.disabled = self.estop_button.disabled = self.pwm_button.disabled = not on
+        self.reset_button.disabled = True
         self._syncing = True
         for ch, box in enumerate(self.outputs, start=1):
             box.disabled = ch > n_out
@@ -192,7 +196,15 @@ class DevicePanel:
     def estop(self) -> DeviceLog | None:
         log = self._do(self.motion_msg, "E-stop", lambda c: c.estop())
         if log is not None:
-            self.motion_msg.content += " — latched: disconnect and connect again to clear it"
+            self.motion_msg.content += " — latched: press Reset once the cause is clear"
+            self.reset_button.disabled = False
+        return log
+
+    def reset(self) -> DeviceLog | None:
+        """Clear a latched e-stop (the button stays enabled while the device refuses, e.g. its input is closed)."""
+        log = self._do(self.motion_msg, "Reset", lambda c: c.reset())
+        if log is not None:
+            self.reset_button.disabled = True
         return log
 
     def _output_toggled(self, channel: int) -> None:

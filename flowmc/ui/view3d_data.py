@@ -31,7 +31,8 @@ SPEED_STOPS = (
 FEED_RGB = (90, 90, 90)
 RAPID_RGB = (235, 140, 40)
 _TIMELINE_TITLES = {"dout": "Digital outputs", "din": "Digital inputs", "pwm_duty": "PWM duty (%)",
-                    "pwm_freq": "PWM frequency (Hz)", "da": "DA (V)", "spindle_rpm": "Spindle (rpm)"}
+                    "pwm_freq": "PWM frequency (Hz)", "da": "DA (V)", "spindle_rpm": "Spindle (rpm)",
+                    "tool": "Tool/pen (1 = down)"}
 
 
 def xyz(positions: np.ndarray, axes: tuple[str, ...]) -> np.ndarray:

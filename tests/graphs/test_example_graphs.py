@@ -132,8 +132,15 @@ def test_xy_plotter_draws_in_all_quadrants_and_lifts_the_pen():
     log = result.outputs["log"]
     assert log.outcome == "done"
     np.testing.assert_allclose(log.position[-1], pos[-1], atol=1e-9)
-    homing = result.nodes["home"].outputs["log"]
-    assert homing.outcome == "done"
+    homing, jog = result.nodes["home"].outputs["log"], result.nodes["jog"].outputs["log"]
+    assert homing.outcome == "done" and jog.outcome == "done"
+    np.testing.assert_allclose(jog.position[-1], [20.0, 0.0], atol=0.01)
+    np.testing.assert_allclose(pos[0], jog.position[-1], atol=0.01)  # the drawing starts where the jog left the pen
+    # The pen (output 1) goes down for every stroke and up for every move between them.
+    tool = [c.value for c in log.changes if c.kind == "tool"]
+    pen = [c.value for c in log.changes if c.kind == "dout" and c.channel == 1]
+    assert pen == tool and len(pen) >= 6 and pen[-1] == 1.0
+    assert all(a != b for a, b in zip(pen, pen[1:]))
     table = flowmc.load(GRAPHS / "xy_plotter.flowmc.json")
     limits = next(n for n in table.nodes if n.id == "table").params["axes"]
     for axis, col in zip(limits, pos.T):

@@ -63,8 +63,9 @@ def assert_events_agree(path: Path, ref) -> None:
     move_list = [s for s in segs if not isinstance(s, Dwell)]
     events = ref.events
 
+    # Zero-second dwells that rs274 has no DWELL for only carry state changes (outputs, spindle).
     ours_dwell = sorted((line_of(s), round(s.seconds, 4)) for s in segs if isinstance(s, Dwell)
-                        and not (s.seconds == 0 and (s.outputs or s.analog) and not any(
+                        and not (s.seconds == 0 and not any(
                             e.name == "DWELL" and e.line == line_of(s) for e in events)))
     theirs_dwell = sorted((e.line, round(e.values[0], 4)) for e in events if e.name == "DWELL")
     assert ours_dwell == theirs_dwell
@@ -106,6 +107,13 @@ def assert_events_agree(path: Path, ref) -> None:
             k += 1
         expected.append(speed * direction)
     assert [s.spindle for s in move_list] == pytest.approx(expected)
+    for e in ordered[k:]:  # calls after the last move: the program's end state
+        if e.name == "SET_SPINDLE_SPEED":
+            speed = e.values[1]
+        elif e.name in ("START_SPINDLE_CLOCKWISE", "START_SPINDLE_COUNTERCLOCKWISE", "STOP_SPINDLE_TURNING"):
+            direction = {"START_SPINDLE_CLOCKWISE": 1.0, "START_SPINDLE_COUNTERCLOCKWISE": -1.0}.get(e.name, 0.0)
+    if segs:
+        assert segs[-1].spindle == pytest.approx(speed * direction)
 
 
 def check_program(text: str, name: str, tol: float = MM_TOL, events: bool = True) -> Path:

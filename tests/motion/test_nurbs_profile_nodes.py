@@ -213,10 +213,11 @@ def test_time_division_dwell_curves_and_signals():
     # speed on the ellipse respects its chord clamp at the tightest radius b^2/a = 5 mm
     speed = traj.speed()
     assert speed[seg[1:] == 2].max() <= timediv.arc_feed_limit(5.0, 0.004, 0.001) * (1 + 1e-9)
-    # signals at each segment's start time: dout and spindle on the line, DA on the ellipse, spindle off on the NURBS
+    # signals at each segment's start time: dout, spindle and tool down (the tool starts up) on the line,
+    # DA on the ellipse, spindle off on the NURBS
     sig = traj.signals
     t_ell = (np.flatnonzero(seg == 2)[0] - 1) * traj.period
     t_nurbs = (np.flatnonzero(seg == 3)[0] - 1) * traj.period
     events = sorted(zip(sig.t.round(9), sig.kind, sig.channel, sig.value))
-    assert events == sorted([(0.0, "dout", 3, 1.0), (0.0, "spindle_rpm", 0, 1200.0),
+    assert events == sorted([(0.0, "dout", 3, 1.0), (0.0, "spindle_rpm", 0, 1200.0), (0.0, "tool", 0, 1.0),
                              (round(t_ell, 9), "da", 0, 2.5), (round(t_nurbs, 9), "spindle_rpm", 0, 0.0)])

@@ -191,6 +191,40 @@ def test_estop_latches_and_refuses_further_jogs(device):
     assert "clear" in device.status.content
 
 
+def test_reset_clears_the_estop_without_reconnecting(device):
+    assert device.reset_button.disabled  # nothing to reset yet
+    device.step.value = 2.0
+    device.jog["X"].value = "+"
+    device.estop_button.value = True
+    assert "press Reset" in device.motion_msg.content and not device.reset_button.disabled
+    card = device.card
+    device.reset_button.value = True
+    assert device.motion_msg.content.startswith("Reset: done (e-stop cleared)")
+    assert "E-stop: clear" in device.status.content and device.reset_button.disabled
+    assert device.card is card  # the same connection: the card kept its position
+    device.jog["X"].value = "+"
+    assert device.motion_msg.content.startswith("Jog X+2 mm: done")
+    np.testing.assert_allclose(device.card.position(), [4.0, 0.0, 0.0])
+
+
+def test_reset_that_the_device_refuses_is_shown_and_stays_offered(server):
+    panel = DevicePanel(server.gui, Machine, refresh_s=0.05, device_options={"sim": {"estop_input": 2}})
+    try:
+        panel.connect_button.value = True
+        with panel._lock:  # the panel's status poller uses the card too
+            panel.card.schedule_input(0.0, 2, True)  # the e-stop button on input 2 is pressed
+        panel.estop_button.value = True
+        panel.reset_button.value = True
+        assert "**Reset failed:** sim card: e-stop input 2 is still closed" in panel.motion_msg.content
+        assert not panel.reset_button.disabled and "LATCHED" in panel.status.content
+        with panel._lock:
+            panel.card.schedule_input(panel.card.clock, 2, False)  # released
+        panel.reset_button.value = True
+        assert panel.motion_msg.content.startswith("Reset: done") and panel.reset_button.disabled
+    finally:
+        panel.close()
+
+
 def test_output_toggle_shows_in_the_status(device):
     device.outputs[2].value = True
     assert device.card.status()["outputs"] == [3]
@@ -252,7 +286,8 @@ def test_grbl_through_the_pty_simulator(server):
         panel.step.value = 1.5
         panel.jog["Y"].value = "+"
         assert panel.motion_msg.content.startswith("Jog Y+1.5 mm: done"), panel.motion_msg.content
-        np.testing.assert_allclose(panel.card.position(), [0.0, 1.5, 0.0])
+        with panel._lock:  # the panel's status poller reads the same serial port: take turns with it
+            np.testing.assert_allclose(panel.card.position(), [0.0, 1.5, 0.0])
         assert [box.disabled for box in panel.outputs] == [False] + [True] * 7  # GRBL drives one output
         panel.outputs[0].value = True
         assert panel.output_msg.content.startswith("DO1 on: done")

@@ -185,6 +185,18 @@ def test_steps_are_played_untimed_with_the_index_as_time(view):
     assert "Velocity (mm/tick)" in view.plots
 
 
+def test_pen_timeline_of_an_untimed_step_stream_is_in_ticks(view):
+    from flowmc.motion.contour import Contour, contours_to_path
+    from flowmc.motion.path_steps import path_to_steps
+
+    square = Contour(np.array([[1, 1], [3, 1], [3, 3], [1, 1]], dtype=float), True)
+    steps = path_to_steps(contours_to_path([square], feed=10.0), 0.5)  # untimed: times are tick indices
+    view.show([], [steps], None)
+    down = int(np.searchsorted(steps.segment, 1))  # the first stroke's first step
+    x, pen = view.plots["Tool/pen (1 = down)"].data
+    assert np.all(pen[x < down] == 0.0) and np.all(pen[x > down] == 1.0) and x[-1] == len(steps)
+
+
 def test_nothing_to_show_hides_marker_and_playback(view, planned):
     _, _, path, traj = planned
     view.show([path], [traj], None)

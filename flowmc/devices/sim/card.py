@@ -64,14 +64,15 @@ class SimCard(MotionCard):
 
     Options: ``closed_loop`` with ``loop`` settings; ``switches`` per axis name; ``estop_input``
     (1-8, or None: the card's default, no e-stop input); ``analog`` ("da" or "pwm": the jumper on
-    the shared terminal); ``spindle_outputs`` (run, counter-clockwise); ``homing`` speeds;
-    ``state``: start from the end state of an earlier log (``log.state``).
+    the shared terminal); ``spindle_outputs`` (run, counter-clockwise); ``pen_output``: the digital
+    output a program's tool (pen) signal drives, down = on (None, the default, or 0: none, the tool
+    state is only logged; a plotter names its pen output); ``homing`` speeds; ``state``: start from the end state of an earlier log (``log.state``).
     """
 
     def __init__(self, machine: Machine | None = None, *, closed_loop: bool = False,
                  loop: LoopSettings = LoopSettings(), switches: dict[str, AxisSwitches] | None = None,
                  estop_input: int | None = None, analog: str = "da", spindle_outputs: tuple[int, int] = (1, 2),
-                 homing: HomingSettings = HomingSettings(), state: dict | None = None):
+                 pen_output: int | None = None, homing: HomingSettings = HomingSettings(), state: dict | None = None):
         self.machine = machine if machine is not None else Machine()
         self.spec = "sim"
         if len(self.machine.axes) > N_CARD_AXES:
@@ -105,7 +106,7 @@ class SimCard(MotionCard):
         self._axis_io = list(state.get("axis_io", [True] * n))
         self._plain = {int(k): bool(v) for k, v in state.get("plain_inputs", {}).items()}
         self._estopped = bool(state.get("estop", False))
-        self._outputs = Outputs(self.ranges, spindle_outputs, state)
+        self._outputs = Outputs(self.ranges, spindle_outputs, state, pen_output)
         self._schedule: list[tuple[float, int, bool]] = []
         self._pieces: list[_Piece] = []
 
@@ -144,7 +145,7 @@ class SimCard(MotionCard):
                 "inputs": [ch for ch, on in self.read_inputs().items() if on],
                 "outputs": [i + 1 for i, on in enumerate(self._outputs.bits) if on],
                 "pwm_hz_duty": list(self._outputs.pwm), "da_v": self._outputs.da,
-                "spindle_rpm": self._outputs.spindle_rpm}
+                "spindle_rpm": self._outputs.spindle_rpm, "tool_down": self._outputs.tool_down}
 
     # ---------------------------------------------------------------- inputs
     def _switch_levels(self, axis: int, world: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -317,9 +318,18 @@ class SimCard(MotionCard):
         if check:
             preflight(motion, self.machine, signals, ranges=self.ranges)
         self._ready()
-        program, segment, program_dt = self._program_counts(motion)
+        program, segment, program_dt, tick = self._program_counts(motion)
         sig = program_signals(motion, signals)
-        self._apply_signals(sig, copy.deepcopy(self._outputs), 0, len(program) - 1, program_dt)  # all valid?
+        if isinstance(motion, Steps) and motion.tick <= 0:  # untimed: signal times are tick indices
+            sig = Signal(sig.t * tick, sig.kind, sig.channel, sig.value)
+        lift = "tool" in sig.kind.tolist() and self._outputs.tool_down  # a program's tool starts up
+        trial = copy.deepcopy(self._outputs)
+        if lift:
+            trial.apply("tool", 0, 0.0, self.clock, where="program start (the tool starts up)")
+        self._apply_signals(sig, trial, 0, len(program) - 1, program_dt)  # all valid?
+        if lift:  # before the approach move too: the pen must not draw it
+            self._pieces.append(_Piece(self._tick, self._counts[None, :].copy(), self._actual[None, :].copy(),
+                                       self._outputs.apply("tool", 0, 0.0, self.clock)))
         rules = self._motion_rules()
         start = program[0]
         if np.any(start != self._counts):
@@ -353,8 +363,9 @@ class SimCard(MotionCard):
                                          where=f"signal at t={t:g} s")
         return changes
 
-    def _program_counts(self, motion) -> tuple[np.ndarray, np.ndarray, float]:
-        """The program as commanded counts per card period for every machine axis, with segments."""
+    def _program_counts(self, motion) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """The program as commanded counts per card period for every machine axis, with segments, the
+        period and the program's own time step (a step stream's tick: the one chosen when untimed)."""
         n = len(self.machine.axes)
         cols = axis_columns(motion.axes, self.machine)
         T = self.period
@@ -368,6 +379,7 @@ class SimCard(MotionCard):
             else:
                 seg = np.asarray(motion.segment)
             part = np.rint(pos / self.step_mm[cols]).astype(np.int64)
+            tick = motion.period
         elif isinstance(motion, Steps):
             tick = motion.tick if motion.tick > 0 else self._untimed_tick(motion, cols)
             origin = np.rint(motion.origin / self.step_mm[cols]).astype(np.int64)
@@ -380,7 +392,7 @@ class SimCard(MotionCard):
             raise DeviceError(f"a card runs a Trajectory or Steps, not {type(motion).__name__}", where="sim card")
         program = np.repeat(self._counts[None, :], len(part), axis=0)
         program[:, cols] = part
-        return program, seg, T
+        return program, seg, T, tick
 
     def _untimed_tick(self, steps: Steps, cols) -> float:
         """An untimed pulse table runs at the fastest rate every moving axis allows."""
@@ -439,12 +451,13 @@ class SimCard(MotionCard):
         self._estopped = True
         return self._log("estop", [Event("estop", self.clock, "", "software e-stop: all axes stopped")])
 
-    def reset(self) -> None:
-        """Clear a latched e-stop once its input is open again."""
+    def reset(self) -> DeviceLog:
+        """Clear a latched e-stop once its input is open again (DeviceError while it is closed)."""
         self._inputs_now()
         if self.estop_input is not None and self._plain.get(self.estop_input, False):
             raise DeviceError(f"e-stop input {self.estop_input} is still closed", where="sim card")
-        self._estopped = False
+        was, self._estopped = self._estopped, False
+        return self._log("done", [Event("reset", self.clock, "", "e-stop cleared" if was else "nothing latched")])
 
     def _set(self, *items: tuple[str, int, float]) -> DeviceLog:
         """Set outputs now; all are checked before any changes (outputs work in e-stop too)."""

@@ -2,8 +2,12 @@
 
 What is set is what the card really produces: PWM frequency and duty through the 6050's counters,
 DA volts at 12 bits, spindle speed through the DA (0-10 V for 0-24,000 rpm) with run and direction
-on two digital outputs (the thesis's FWD/REV inverter terminals). Every change is returned as a
-``Change`` so the log can record it.
+on two digital outputs (the thesis's FWD/REV inverter terminals), and the tool (pen) state on the
+pen output. Every change is returned as a ``Change`` so the log can record it.
+
+The pen output (default 1) may be one of the spindle's outputs: a plotter's pen relay and a mill's
+spindle run take the same terminal, as GRBL's M3/M5 drive both. A program that runs the spindle and
+would switch that output against it with the tool (lift the pen while the spindle runs) is refused.
 """
 
 from __future__ import annotations
@@ -24,22 +28,28 @@ def _fmt(x: float) -> str:
 class Outputs:
     """Output state plus ``apply(kind, channel, value, t)`` that checks, quantises and reports changes."""
 
-    def __init__(self, ranges: CardRanges, spindle_outputs: tuple[int, int] = (1, 2), state: dict | None = None):
+    def __init__(self, ranges: CardRanges, spindle_outputs: tuple[int, int] = (1, 2), state: dict | None = None,
+                 pen_output: int | None = 1):
         self.ranges = ranges
         self.spindle_outputs = tuple(spindle_outputs)
         for ch in self.spindle_outputs:
             if not 1 <= ch <= ranges.outputs:
                 raise DeviceError(f"spindle output {ch} does not exist (outputs 1-{ranges.outputs})", where="sim card")
+        if pen_output is not None and not 0 <= pen_output <= ranges.outputs:
+            raise DeviceError(f"pen output {pen_output} does not exist (outputs 1-{ranges.outputs}, 0: none)",
+                              where="sim card")
+        self.pen_output = pen_output or None
         state = state or {}
         self.bits = list(state.get("outputs", [False] * ranges.outputs))
         self.pwm_request = tuple(state.get("pwm_request", (1000.0, 0.0)))
         self.pwm = tuple(state.get("pwm", (0.0, 0.0)))  # (0, 0): PWM never started
         self.da = float(state.get("da", 0.0))
         self.spindle_rpm = float(state.get("spindle_rpm", 0.0))
+        self.tool_down = bool(state.get("tool_down", False))
 
     def state(self) -> dict:
         return {"outputs": list(self.bits), "pwm_request": list(self.pwm_request), "pwm": list(self.pwm),
-                "da": self.da, "spindle_rpm": self.spindle_rpm}
+                "da": self.da, "spindle_rpm": self.spindle_rpm, "tool_down": self.tool_down}
 
     def apply(self, kind: str, channel: int, value: float, t: float, where: str = "sim card") -> list[Change]:
         r = self.ranges
@@ -71,6 +81,8 @@ class Outputs:
                                                              ("pwm_duty", self.pwm[1], new[1])) if old != v]
             self.pwm = new
             return changes
+        if kind == "tool":
+            return self._tool(value, t, where)
         if r.analog == "pwm":
             raise LimitError("the shared PWM/DA terminal is set to PWM; set it to DA", where=where)
         if kind == "da":
@@ -90,6 +102,24 @@ class Outputs:
                 self.spindle_rpm = rpm
             return changes
         raise LimitError(f"unknown output kind {kind!r}", where=where)
+
+    def _tool(self, value: float, t: float, where: str) -> list[Change]:
+        """Tool down (1) or up (0): the tool state, and the pen output when there is one."""
+        if value not in (0.0, 1.0):
+            raise LimitError(f"tool set to {_fmt(value)}, not 1 (down) or 0 (up)", where=where)
+        down = bool(value)
+        pen = self.pen_output
+        if pen in self.spindle_outputs and self.spindle_rpm != 0.0:
+            needs = True if pen == self.spindle_outputs[0] else self.spindle_rpm < 0.0  # run, or ccw
+            if down != needs:
+                role = "run" if pen == self.spindle_outputs[0] else "counter-clockwise"
+                raise LimitError(f"tool {'down' if down else 'up'} would switch output {pen} {'on' if down else 'off'}"
+                                 f", the spindle's {role} output, while the spindle runs at "
+                                 f"{_fmt(self.spindle_rpm)} rpm; give the pen its own output (pen_output) or 0 "
+                                 "for none", where=where)
+        changes = [Change(t, "tool", 1, float(down))] if down != self.tool_down else []
+        self.tool_down = down
+        return changes + (self._bit(pen, down, t) if pen else [])
 
     def _bit(self, channel: int, on: bool, t: float) -> list[Change]:
         if self.bits[channel - 1] == on:

@@ -1,0 +1,243 @@
+"""The simulated LinuxCNC machine behind flowmc's motion-card interface (``open_device("linuxcnc")``).
+
+Every operation is one LinuxCNC session: start, home in place where the last operation
+left the axes, restore outputs and spindle, run a short G-code program, shut down. So
+the card keeps the state between operations, and each operation returns the DeviceLog
+of the servo periods LinuxCNC executed.
+
+What maps to what: a Trajectory (or timed Steps) becomes a G1 polyline through its
+setpoints, each with the feed of its chord (F = chord / T), which LinuxCNC re-plans
+under its own limits with ``G64 P<tolerance>``: the path is the setpoints', the timing
+LinuxCNC's. A Path goes through flowmc's G-code exporter. Digital outputs 1-4 are
+LinuxCNC's motion digital outputs 0-3 (M62/M63 with motion, M64/M65 at once), the DA
+is analog output 0 (M67/M68 E0), the spindle is S with M3/M4/M5. There is no PWM
+output and no wired input. Programs are written between ``%`` lines rather than ended
+with M2, which would switch the spindle off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flowmc.devices.card import MotionCard
+from flowmc.devices.linuxcnc.backend import SERVO_PERIOD, LinuxCNCRun, StartState, home_position, run_program
+from flowmc.devices.log import Change, DeviceLog, Event
+from flowmc.devices.ranges import CardRanges
+from flowmc.errors import DeviceError
+from flowmc.motion.gcode import path_to_gcode
+from flowmc.motion.machine import Machine
+from flowmc.motion.path import Path
+from flowmc.motion.trajectory import Signal, Steps, Trajectory
+
+__all__ = ["LinuxCNCCard", "LINUXCNC_RANGES", "trajectory_gcode"]
+
+#: Four digital outputs, analog output 0 as the DA, no PWM, no wired inputs.
+LINUXCNC_RANGES = CardRanges(inputs=0, outputs=4, analog="da")
+_XYZ = ("X", "Y", "Z")
+
+
+def _num(value: float) -> str:
+    text = f"{value:.6f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def _signal_words(kind: str, channel: int, value: float, where: str) -> str:
+    if kind == "dout":
+        if not 1 <= channel <= 4:
+            raise DeviceError(f"digital output {channel} does not exist (outputs 1-4)", where=where)
+        return f"M{62 if value else 63} P{channel - 1}"
+    if kind == "da":
+        return f"M67 E0 Q{_num(value)}"
+    if kind == "spindle_rpm":
+        return "M5" if value == 0 else f"S{_num(abs(value))} {'M3' if value > 0 else 'M4'}"
+    if kind == "tool":
+        return ""  # a mill's rapids lift nothing: the tool state drives no LinuxCNC output
+    raise DeviceError(f"the LinuxCNC machine has no {kind} output (no PWM)", where=where)
+
+
+def trajectory_gcode(positions: np.ndarray, axes, period: float, signals: Signal | None = None,
+                     tolerance: float = 0.001) -> str:
+    """Setpoints as a G1 polyline, each line with the feed of its chord; pauses become G4 dwells.
+
+    The program first moves (G0) to the first setpoint, which is a no-op when the machine is there.
+
+    Signal events go before the line of the setpoint at or after their time (dout and DA with
+    the motion, M62/M63/M67; spindle S/M3/M4/M5).
+    """
+    cols = [_XYZ.index(a.upper()) for a in axes]
+    pos = np.asarray(positions, dtype=float)
+    chord = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+    by_row: dict[int, list[str]] = {}
+    if signals is not None:
+        for t, kind, channel, value in zip(signals.t, signals.kind, signals.channel, signals.value):
+            row = min(max(int(np.ceil(t / period - 1e-9)), 1), max(len(pos) - 1, 1))
+            words = _signal_words(str(kind), int(channel), float(value), f"signal at t={t:g} s")
+            if words:
+                by_row.setdefault(row, []).append(words)
+    first = " ".join(f"{_XYZ[c]}{_num(v)}" for c, v in zip(cols, pos[0])) if len(pos) else ""
+    out = ["%", "G21 G90 G17 G94", f"G64 P{_num(tolerance)}"] + ([f"G0 {first}"] if first else [])
+    pause = 0
+    for k in range(1, len(pos)):
+        out += by_row.get(k, [])
+        if chord[k - 1] == 0.0:
+            pause += 1
+            continue
+        if pause:
+            out.append(f"G4 P{_num(pause * period)}")
+            pause = 0
+        words = " ".join(f"{_XYZ[c]}{_num(v)}" for c, v in zip(cols, pos[k]))
+        out.append(f"G1 {words} F{_num(chord[k - 1] / period * 60.0)}")
+    if pause:
+        out.append(f"G4 P{_num(pause * period)}")
+    if len(pos) <= 1:
+        out += by_row.get(1, [])
+    out.append("%")
+    return "\n".join(out) + "\n"
+
+
+class LinuxCNCCard(MotionCard):
+    """The simulated LinuxCNC machine for ``machine`` (axes among X, Y, Z).
+
+    Options: ``servo_period`` (s, LinuxCNC's servo thread and sampling), ``tolerance`` (mm, the
+    G64 P used for trajectories), ``timeout`` (s per operation), ``state`` (a previous log's state).
+    """
+
+    def __init__(self, machine: Machine | None = None, *, servo_period: float = SERVO_PERIOD,
+                 tolerance: float = 0.001, timeout: float = 300.0, state: dict | None = None):
+        self.machine = machine if machine is not None else Machine()
+        self.spec = "linuxcnc"
+        self.ranges = LINUXCNC_RANGES
+        odd = [a.name for a in self.machine.axes if a.name.upper() not in _XYZ]
+        if odd:
+            raise DeviceError(f"the LinuxCNC machine has axes X, Y, Z; not {', '.join(odd)}", where="linuxcnc")
+        self.servo_period = servo_period
+        self.tolerance = tolerance
+        self.timeout = timeout
+        state = dict(state or {})
+        self._pos = np.array(state.get("position_xyz", home_position(self.machine)), dtype=float)  # X Y Z
+        self._dout = [bool(v) for v in state.get("dout", [False] * 4)]
+        self._aout = [float(v) for v in state.get("aout", [0.0, 0.0])]
+        self._spindle = float(state.get("spindle_rpm", 0.0))
+        self._cols = [_XYZ.index(a.name.upper()) for a in self.machine.axes]
+
+    # ---------------------------------------------------------------- state
+    def position(self) -> np.ndarray:
+        return self._pos[self._cols].copy()
+
+    def state(self) -> dict:
+        return {"device": "linuxcnc", "axes": list(self.machine.names), "position_xyz": self._pos.tolist(),
+                "dout": list(self._dout), "aout": list(self._aout),
+                "spindle_rpm": self._spindle}
+
+    def status(self) -> dict:
+        return {"device": "linuxcnc", "position_mm": self.position().round(6).tolist(),
+                "outputs": [i + 1 for i, on in enumerate(self._dout) if on], "da_v": self._aout[0],
+                "spindle_rpm": self._spindle, "servo_period_s": self.servo_period}
+
+    def read_inputs(self) -> dict[int, bool]:
+        return {}  # the simulator has no wired inputs
+
+    # ---------------------------------------------------------------- operations
+    def run_gcode(self, gcode: str, name: str = "program.ngc") -> DeviceLog:
+        """Run G-code as it is (starting where the card is) and return the log."""
+        start = StartState(home=self._pos.copy(), dout=tuple(self._dout), aout=tuple(self._aout),
+                           spindle_rpm=self._spindle)
+        run = run_program(gcode, self.machine, servo_period=self.servo_period, timeout=self.timeout, name=name,
+                          start=start)
+        return self._log(run)
+
+    def run_path(self, path: Path, tolerance: float | None = None) -> DeviceLog:
+        """Run a Path through flowmc's G-code exporter with ``G64 P<tolerance>`` (default: the card's),
+        after a G0 from where the card is to the path's start."""
+        text = path_to_gcode(path, blend_tolerance=self.tolerance if tolerance is None else tolerance,
+                             program_end=False)
+        to_start = " ".join(f"{a}{_num(v)}" for a, v in zip(_XYZ, path.start))
+        return self.run_gcode(f"%\nG21 G90\nG0 {to_start}\n{text}%\n", name="path.ngc")
+
+    def run(self, motion: Trajectory | Steps, signals: Signal | None = None, *, check: bool = True) -> DeviceLog:
+        if check:
+            self.check(motion, signals)
+        if isinstance(motion, Steps):
+            if motion.tick <= 0:
+                raise DeviceError("an untimed step stream has no speeds for LinuxCNC; give a trajectory "
+                                  "or a timed step stream", where="linuxcnc")
+            positions, period, axes = motion.positions(), motion.tick, motion.axes
+        else:
+            positions, period, axes = motion.positions, motion.period, motion.axes
+        missing = [a for a in axes if a not in self.machine.names]
+        if missing:
+            raise DeviceError(f"program axes {missing} are not machine axes {self.machine.names}", where="linuxcnc")
+        merged = motion.signals.merged(signals) if signals is not None else motion.signals
+        return self.run_gcode(trajectory_gcode(positions, axes, period, merged, self.tolerance), name="trajectory.ngc")
+
+    def home(self, axes: tuple[str, ...] | None = None, method: str = "switch") -> DeviceLog:
+        """LinuxCNC homes in place (HOME_SEARCH_VEL = 0): the named axes become 0 where they stand."""
+        names = tuple(axes) if axes else self.machine.names
+        unknown = [a for a in names if a not in self.machine.names]
+        if unknown:
+            raise DeviceError(f"no axis {unknown}; axes: {', '.join(self.machine.names)}", where="linuxcnc")
+        zero = home_position(self.machine)
+        for a in names:
+            k = _XYZ.index(a.upper())
+            self._pos[k] = zero[k]
+        log = self.run_gcode("%\nG4 P0\n%\n", name="home.ngc")
+        events = tuple(log.events) + tuple(Event("home", 0.0, a, "homed in place") for a in names)
+        return DeviceLog(log.device, log.axes, log.period, log.t, log.steps, log.position, None, log.changes,
+                         events, log.outcome, log.state)
+
+    def jog(self, axis: str, distance: float, speed: float) -> DeviceLog:
+        if axis not in self.machine.names:
+            raise DeviceError(f"no axis {axis!r}; axes: {', '.join(self.machine.names)}", where="linuxcnc")
+        if not speed > 0:
+            raise DeviceError(f"jog speed must be > 0 mm/s, got {speed}", where="linuxcnc")
+        letter = axis.upper()
+        return self.run_gcode(f"%\nG21 G91 G1 {letter}{_num(distance)} F{_num(speed * 60)}\nG90\n%\n", name="jog.ngc")
+
+    def estop(self) -> DeviceLog:
+        """Nothing runs between operations, so an e-stop only switches outputs and spindle off."""
+        self._dout = [False] * 4
+        self._aout = [0.0, 0.0]
+        self._spindle = 0.0
+        pos = self.position()
+        return DeviceLog(self.spec, self.machine.names, self.servo_period, [0.0], np.zeros((1, len(pos))),
+                         pos[None, :], events=(Event("estop", 0.0, "", "outputs and spindle off"),),
+                         outcome="estop", state=self.state())
+
+    def set_output(self, channel: int, on: bool) -> DeviceLog:
+        _signal_words("dout", channel, on, "set_output")  # checks the channel
+        return self.run_gcode(f"%\nM{64 if on else 65} P{channel - 1}\n%\n", name="output.ngc")
+
+    def set_pwm(self, freq: float, duty: float) -> DeviceLog:
+        raise DeviceError("the LinuxCNC machine has no PWM output", where="linuxcnc")
+
+    def set_da(self, volts: float) -> DeviceLog:
+        return self.run_gcode(f"%\nM68 E0 Q{_num(volts)}\n%\n", name="da.ngc")
+
+    def set_spindle(self, rpm: float) -> DeviceLog:
+        return self.run_gcode(f"%\n{_signal_words('spindle_rpm', 0, rpm, 'set_spindle')}\nG4 P0.05\n%\n",
+                              name="spindle.ngc")
+
+    # ---------------------------------------------------------------- logs
+    def _log(self, run: LinuxCNCRun) -> DeviceLog:
+        """A DeviceLog of the run, and the card's state updated to where it ended."""
+        n = len(run.samples)
+        t = np.arange(n) * run.servo_period
+        position = run.samples[:, self._cols]
+        counts = np.rint(position / self.machine.column("step_mm")).astype(np.int64)
+        steps = np.vstack([np.zeros((1, len(self._cols)), dtype=np.int64), np.diff(counts, axis=0)])
+        changes: list[Change] = []
+        before = (np.array(self._dout), np.array(self._aout), self._spindle)
+        for ch in range(4):
+            seq = np.r_[before[0][ch], run.dout[:, ch]].astype(int)
+            changes += [Change(t[k], "dout", ch + 1, float(seq[k + 1])) for k in np.flatnonzero(np.diff(seq))]
+        seq = np.r_[before[1][0], run.aout[:, 0]]
+        changes += [Change(t[k], "da", 1, float(seq[k + 1])) for k in np.flatnonzero(np.diff(seq))]
+        seq = np.r_[before[2], run.spindle_rpm]
+        changes += [Change(t[k], "spindle_rpm", 1, float(seq[k + 1])) for k in np.flatnonzero(np.diff(seq))]
+        self._pos = run.samples[-1].copy()
+        self._dout = run.dout[-1].tolist()
+        self._aout = run.aout[-1].tolist()
+        self._spindle = float(run.spindle_rpm[-1])
+        events = tuple(Event("message", 0.0, "", text) for text in run.messages)
+        return DeviceLog(self.spec, self.machine.names, run.servo_period, t, steps, position, None, changes,
+                         events, "done", self.state())

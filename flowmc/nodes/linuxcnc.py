@@ -1,0 +1,45 @@
+"""LinuxCNC as a peer: run the same program on LinuxCNC's real planner and compare its motion with flowmc's."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from flowmc.registry import In, NodeType, Out, register
+
+
+class CompareParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    tolerance: Annotated[float, Field(gt=0, le=5, description="Corner tolerance: G64 P for LinuxCNC, blend "
+                                                              "tolerance for flowmc", json_schema_extra={"unit": "mm"})] = 0.05
+    servo_period: Annotated[float, Field(gt=0, le=0.01, description="LinuxCNC's servo period",
+                                         json_schema_extra={"unit": "s"})] = 0.001
+
+
+@register
+class LinuxCNCCompare(NodeType):
+    type_id = "device.linuxcnc_compare"
+    title = "Compare with LinuxCNC"
+    category = "Devices"
+    description = "Run the path on LinuxCNC's simulator and report cycle time, deviations and peaks beside flowmc's plan."
+    pure = False  # starts an external machine
+    Params = CompareParams
+    inputs = (
+        In("path", "Path", doc="The programmed path"),
+        In("machine", "Machine", doc="Axis limits (default: the default machine)", default=None),
+        In("trajectory", "Trajectory", doc="flowmc's plan (default: look-ahead with blends)", default=None),
+    )
+    outputs = (
+        Out("report", "Table", doc="quantity, unit, flowmc, linuxcnc"),
+        Out("linuxcnc", "Trajectory", doc="What LinuxCNC executed, every servo period"),
+    )
+
+    def run(self, ctx, params: CompareParams, path, machine=None, trajectory=None):
+        from flowmc.devices.linuxcnc.compare import compare_path
+
+        result = compare_path(path, machine, tolerance=params.tolerance, flowmc=trajectory,
+                              servo_period=params.servo_period)
+        ctx.log(result.text())
+        return {"report": result.table, "linuxcnc": result.linuxcnc.trajectory()}

@@ -1,0 +1,91 @@
+"""The comparison report: flowmc's look-ahead plan beside LinuxCNC's executed motion."""
+
+import json
+
+import numpy as np
+import pytest
+from linuxcnc_programs import MEASURED, TOL, machine
+
+from flowmc.cli import main as flowmc_main
+from flowmc.devices.linuxcnc.compare import compare_trajectories, flowmc_feed_time
+from flowmc.motion.lookahead import plan_lookahead
+from flowmc.motion.machine import Axis, Machine
+
+
+def test_report_puts_both_sides_measured_the_same_way(runs):
+    path, run, _, _ = runs["mixed"]
+    ours = plan_lookahead(path, Machine(axes=machine().axes, period=0.004), rule="blend", tolerance=TOL).trajectory
+    table = compare_trajectories(ours, run, path)
+    rows = {q: (f, lc) for q, f, lc in zip(table["quantity"], table["flowmc"], table["linuxcnc"])}
+    assert rows["feed cycle time"][1] == pytest.approx(run.feed_time)
+    assert rows["feed cycle time"][1] == pytest.approx(MEASURED["mixed"], rel=0.02)
+    assert rows["feed cycle time"][0] == pytest.approx(ours.duration, abs=0.004)  # all of it is feed
+    assert rows["period"] == (0.004, 0.001)
+    # both keep the corner tolerance (chords of the samples against the programmed path)
+    assert 0.01 < rows["deviation from the programmed path"][0] <= TOL * 1.01
+    assert 0.01 < rows["deviation from the programmed path"][1] <= TOL * 1.05
+    assert max(rows["deviation from the other tool path"]) < 2 * TOL
+    for axis in "XY":
+        f, lc = rows[f"peak velocity {axis}"]
+        assert 150 < f <= 200.0 + 1e-6 and 150 < lc <= 200.0 + 1e-3
+        f, lc = rows[f"peak acceleration {axis}"]
+        assert 100 < f <= 200 * 1.01 and 100 < lc <= 200 * 1.01 + 2.0
+    assert rows["peak velocity Z"] == (0.0, 0.0)
+
+
+def test_flowmc_feed_time_leaves_out_rapids_and_standstill():
+    from flowmc.motion.path import Line, Path
+    from flowmc.motion.trajectory import Trajectory
+
+    path = Path([Line([0, 0, 0], [1, 0, 0], feed=10.0, rapid=True), Line([1, 0, 0], [2, 0, 0], feed=10.0)])
+    pos = np.array([[0, 0, 0], [0.5, 0, 0], [1, 0, 0], [1.5, 0, 0], [2, 0, 0], [2, 0, 0]], dtype=float)
+    traj = Trajectory(pos, 0.1, segment=[0, 0, 0, 1, 1, 1])
+    assert flowmc_feed_time(traj, path) == pytest.approx(0.2)
+
+
+def test_flowmc_compare_cli_prints_the_side_by_side_table(tmp_path, capsys):
+    graph = {
+        "schema_version": 1,
+        "title": "compare a square",
+        "nodes": [
+            {"id": "machine", "type": "machine",
+             "params": {"axes": [a.model_dump() for a in machine().axes], "period": 0.004}},
+            {"id": "path", "type": "path.polyline",
+             "params": {"feed": 100.0, "points": [[0, 0, 0], [30, 0, 0], [30, 30, 0], [0, 30, 0], [0, 0, 0]]}},
+        ],
+        "wires": [],
+    }
+    file = tmp_path / "square.flowmc.json"
+    file.write_text(json.dumps(graph))
+    code = flowmc_main(["compare", str(file), "--with", "linuxcnc"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "flowmc's look-ahead planner vs LinuxCNC" in out
+    line = next(ln for ln in out.splitlines() if ln.startswith("feed cycle time"))
+    flowmc_s, linuxcnc_s = (float(v) for v in line.split()[-2:])
+    # 30 mm sides with near-stops at the corners never reach 100 mm/s: a triangle of about
+    # 2 sqrt(30 / 200) = 0.77 s per side at 200 mm/s^2, a little more with the blends
+    assert 3.0 < flowmc_s < 3.7 and 3.0 < linuxcnc_s < 3.7
+    deviation = next(ln for ln in out.splitlines() if ln.startswith("deviation from the programmed path"))
+    assert all(0.0 < float(v) <= TOL for v in deviation.split()[-2:])
+
+
+def test_compare_names_a_graph_without_a_path(tmp_path, capsys):
+    file = tmp_path / "empty.flowmc.json"
+    file.write_text(json.dumps({"schema_version": 1, "title": "no path", "nodes": [
+        {"id": "machine", "type": "machine", "params": {}}], "wires": []}))
+    assert flowmc_main(["compare", str(file)]) != 0
+    assert "produces no Path" in capsys.readouterr().err
+
+
+def test_axis_limits_come_from_the_graph_machine():
+    from flowmc.devices.linuxcnc.backend import StartState, render_ini
+
+    slow = Machine(axes=(Axis(name="X", min=-10, max=20, vmax=50, amax=70), Axis(name="Y"),
+                         Axis(name="Z", min=-5, max=5)))
+    ini = render_ini(slow, program="/p.ngc", display="/d", dir=__import__("pathlib").Path("/run"),
+                     servo_period=0.001, timeout=1.0, start=StartState())
+    section = ini[ini.index("[AXIS_X]"):ini.index("[AXIS_Y]")]
+    assert "MIN_LIMIT = -10.0" in section and "MAX_LIMIT = 20.0" in section
+    assert "MAX_VELOCITY = 50.0" in section and "MAX_ACCELERATION = 70.0" in section
+    assert "MAX_LINEAR_VELOCITY = 200.0" in ini  # the fastest axis bounds the vector speed
