@@ -339,11 +339,11 @@ def _check_magnitude(conic: _Conic, cmax: int, what: str) -> None:
         raise PathError(f"{what} is too large for exact 64-bit deviation arithmetic; use a coarser step")
 
 
-def pbp_arc(start, end, center=(0, 0), ccw: bool = True, turns: int = 0) -> StepStream:
-    """Point-by-point comparison circle from ``start`` to ``end`` about ``center`` (integer steps).
 
-    The radius is the start's (F = 0 there); the end must be within one step of that circle.
-    ``start == end`` is a full circle; ``turns`` adds whole extra turns.
+def _arc_frame(start, end, center) -> tuple:
+    """Start and end (as integers, then relative to the centre), R^2 and both radii.
+
+    PathError unless the end is within one step of the start's circle.
     """
     c = _int_pair(center, "arc centre")
     p0 = _int_pair(start, "arc start")
@@ -357,6 +357,15 @@ def pbp_arc(start, end, center=(0, 0), ccw: bool = True, turns: int = 0) -> Step
     if abs(r_e - r_s) > 1.0:
         raise PathError(f"arc end is not on the circle: start radius {r_s:.3f} steps, end radius "
                         f"{r_e:.3f} steps (they may differ by at most one step)")
+    return p0, p1, s, e, k, r_s, r_e
+
+def pbp_arc(start, end, center=(0, 0), ccw: bool = True, turns: int = 0) -> StepStream:
+    """Point-by-point comparison circle from ``start`` to ``end`` about ``center`` (integer steps).
+
+    The radius is the start's (F = 0 there); the end must be within one step of that circle.
+    ``start == end`` is a full circle; ``turns`` adds whole extra turns.
+    """
+    p0, p1, s, e, k, r_s, r_e = _arc_frame(start, end, center)
     conic = _Conic(1, 1, k)
     _check_magnitude(conic, int(max(r_s, r_e)) + 2, "this arc")
     steps = _conic_steps(conic, s, e, bool(ccw), _check_turns(turns))
@@ -554,18 +563,7 @@ def dda_arc(start, end, center=(0, 0), ccw: bool = True, bits: int | None = None
     than the largest integrand needs (that spare bit keeps a half-preset DDA within a step of the
     circle); an explicit ``bits`` only has to hold the largest integrand.
     """
-    c = _int_pair(center, "arc centre")
-    p0 = _int_pair(start, "arc start")
-    p1 = _int_pair(end, "arc end")
-    s = (p0[0] - c[0], p0[1] - c[1])
-    e = (p1[0] - c[0], p1[1] - c[1])
-    k = s[0] * s[0] + s[1] * s[1]
-    if k == 0:
-        raise PathError(f"arc radius is zero: start ({p0[0]}, {p0[1]}) is the centre")
-    r_s, r_e = math.sqrt(k), math.hypot(*e)
-    if abs(r_e - r_s) > 1.0:
-        raise PathError(f"arc end is not on the circle: start radius {r_s:.3f} steps, end radius "
-                        f"{r_e:.3f} steps (they may differ by at most one step)")
+    p0, p1, s, e, k, r_s, r_e = _arc_frame(start, end, center)
     ccw = bool(ccw)
     turns = _check_turns(turns)
     _check_ticks(8 * turns, "this arc")
