@@ -19,7 +19,7 @@ __all__ = [
 
 
 class FlowmcError(Exception):
-    """Base class. ``where`` names the place (``"part.ngc:12"``, ``"node 'plan'"``, ``"segment 3"``)."""
+    """Base class. ``where`` names the place (``"part.ngc:12"``, ``"node 'plan'"``, ``"segment 5 (row 4)"``)."""
 
     def __init__(self, message: str, *, where: str | None = None):
         self.message = message

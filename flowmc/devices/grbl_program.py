@@ -27,6 +27,7 @@ import numpy as np
 
 from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
+from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
 __all__ = ["ProgramLine", "motion_gcode", "text_gcode", "decimate", "PEN_COMMANDS", "check_pen_commands"]
@@ -39,7 +40,8 @@ _MIN_DWELL_S = 0.001
 
 
 class ProgramLine(NamedTuple):
-    """A line to send and where it came from (``"row 120"``, ``"part.ngc:12"``, ``"preamble"``)."""
+    """A line to send and where it came from (``"setpoint 120 of segment 5 (row 4)"``, ``"part.ngc:12"``,
+    ``"preamble"``)."""
 
     text: str
     source: str
@@ -79,6 +81,13 @@ def decimate(points: np.ndarray, tolerance: float, keep=()) -> np.ndarray:
     return np.array(sorted(kept))
 
 
+def _row_source(unit: str, row: int, segment: np.ndarray, names: tuple[str, ...]) -> str:
+    """Where a move line came from: its setpoint (or step) and that row's segment as users count it."""
+    if not len(segment):
+        return f"{unit} {row}"
+    return f"{unit} {row} of {describe_segment(int(segment[row]), names)}"
+
+
 def check_pen_commands(pen) -> tuple[str, str] | None:
     """The (down, up) tool commands, checked: one printable line each; None (no pen) passes as None."""
     if pen is None:
@@ -116,8 +125,10 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
         raise DeviceError(f"GRBL drives X, Y and Z; the program also moves {', '.join(bad)}", where="grbl")
     if isinstance(motion, Trajectory):
         pos, dt = np.asarray(motion.positions), motion.period
+        seg, unit = np.asarray(motion.segment), "setpoint"
     elif isinstance(motion, Steps):
         pos = motion.positions()
+        seg, unit = np.concatenate([motion.segment[:1], motion.segment]), "step"  # row 0 is the origin
         if motion.tick > 0:
             dt = motion.tick
         else:  # untimed: as fast as the slowest moving axis allows
@@ -139,7 +150,8 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
     if pen is not None and "tool" in kinds:  # a program's tool starts up, before the move to its start
         lines.append(ProgramLine(pen[1], "preamble (tool up)"))
     start = " ".join(f"{a}{_num(v)}" for a, v in zip(motion.axes, pos[0]))
-    lines.append(ProgramLine(f"G0 {start}", "row 0"))
+    source = lambda row: _row_source(unit, int(row), seg, motion.segment_names)  # noqa: E731
+    lines.append(ProgramLine(f"G0 {start}", source(0)))
     codes: dict[int, list[ProgramLine]] = {}  # row -> signal lines (every signal row is a kept point)
     for i in np.argsort(sig_rows, kind="stable"):
         code = _signal_codes(sig, int(i), pen)
@@ -152,10 +164,10 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
         seconds = (row - prev) * dt
         if length < 1e-9:
             if seconds >= _MIN_DWELL_S:
-                lines.append(ProgramLine(f"G4 P{_num(seconds)}", f"row {row}"))
+                lines.append(ProgramLine(f"G4 P{_num(seconds)}", source(row)))
             continue
         words = " ".join(f"{a}{_num(v)}" for a, v, d in zip(motion.axes, pos[row], step) if abs(d) > 0)
-        lines.append(ProgramLine(f"G1 {words} F{_num(length / seconds * 60.0)}", f"row {row}"))
+        lines.append(ProgramLine(f"G1 {words} F{_num(length / seconds * 60.0)}", source(row)))
     lines += codes.get(int(kept[-1]), [])
     return lines
 

@@ -2,8 +2,10 @@
 
 The XY plotter report (004_*.txt) checks for out-of-bounds moves while drawing; flowmc does the same
 check before motion, so a bad program moves nothing. Every check is vectorised over the whole
-program; the earliest violation is reported as a ``LimitError`` naming the segment, the time, the
-axis and the value, e.g. ``segment 3: X = 212.5 mm beyond soft limit max 200 mm at t=1.204 s``.
+program; the earliest violation is reported as a ``LimitError`` naming the segment as the user knows
+it (1-based, with where it came from: ``describe_segment`` over the program's ``segment_names``), the
+time, the axis and the value, e.g. ``segment 5 (row 4): X = -60.05 mm beyond soft limit min -60 mm at
+t=6.712 s``.
 
 Checked, per axis: soft limits; velocity (|dp|/T <= vmax); acceleration (|d2p|/T^2 <= amax with
 1 % slack for sampling, as the reference README measures it); step rate (pulses per period / T
@@ -27,6 +29,7 @@ import numpy as np
 
 from flowmc.errors import DeviceError, LimitError
 from flowmc.motion.machine import Machine
+from flowmc.motion.path import describe_segment
 from flowmc.motion.table import Table
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 from flowmc.devices.ranges import CARD_6050, CardRanges
@@ -81,12 +84,14 @@ def program_signals(motion, signals: Signal | None) -> Signal:
 class _Found:
     """The earliest violation seen so far: row, then a message to build if it wins.
 
-    ``ticks``: the program is an untimed step stream, whose times are tick indices.
+    ``names``: the program's segment names; ``ticks``: the program is an untimed step stream, whose
+    times are tick indices.
     """
 
-    def __init__(self, ticks: bool = False):
+    def __init__(self, names: tuple[str, ...] = (), ticks: bool = False):
         self.row = None
         self.build = None
+        self.names = names
         self.ticks = ticks
 
     def offer(self, row: int, build) -> None:
@@ -107,10 +112,12 @@ def _fmt(x: float) -> str:
     return f"{x:,.6g}" if abs(x) >= 1e3 else f"{x:.6g}"
 
 
-def _raise(segment: int, t: float, message: str, ticks: bool = False, **details) -> None:
+def _raise(segment: int, names: tuple[str, ...], t: float, message: str, ticks: bool = False, **details) -> None:
+    """Raise LimitError for path segment index ``segment`` (0-based), named as the user counts it."""
     at = f"at tick {t:g}" if ticks else f"at t={t:.3f} s"
-    err = LimitError(f"{message} {at}", where=f"segment {segment}")
-    err.details = {"segment": segment, "t": t, **details}
+    err = LimitError(f"{message} {at}", where=describe_segment(segment, names))
+    source = names[segment] if 0 <= segment < len(names) else ""
+    err.details = {"segment": segment + 1, "source": source, "t": t, **details}
     raise err
 
 
@@ -119,7 +126,9 @@ def preflight(motion, machine: Machine, signals: Signal | None = None, *, ranges
     """Check ``motion`` (a Trajectory or Steps) and its signals; raise LimitError on the first violation.
 
     Returns a report of what the program needs when it passes. Times in messages are program
-    time (row k of a trajectory is t = k T). ``LimitError.details`` holds segment, t, axis, value, limit.
+    time (row k of a trajectory is t = k T). ``LimitError.details`` holds segment (the 1-based number
+    the message shows, not the 0-based ``motion.segment`` index), source (where that segment came
+    from, "" when unknown), t, axis, value, limit.
 
     Example
     -------
@@ -133,12 +142,12 @@ def preflight(motion, machine: Machine, signals: Signal | None = None, *, ranges
     """
     if isinstance(motion, Trajectory):
         rows_t, seg, pos, period, cols = _trajectory_rows(motion, machine)
-        found = _Found()
+        found = _Found(motion.segment_names)
         _check_travel(found, pos, cols, machine, seg, rows_t, motion.axes)
         v, a, rate = _check_dynamics(found, pos, period, cols, machine, seg, rows_t, motion.axes, accel_slack)
     elif isinstance(motion, Steps):
         rows_t, seg, pos, period, cols = _steps_rows(motion, machine)
-        found = _Found(ticks=motion.tick <= 0)
+        found = _Found(motion.segment_names, ticks=motion.tick <= 0)
         _check_travel(found, pos, cols, machine, seg, rows_t, motion.axes)
         v, rate = _check_pulses(found, motion, cols, machine, seg, rows_t)
         a = np.zeros(len(cols))
@@ -160,8 +169,8 @@ def _trajectory_rows(tr: Trajectory, machine: Machine):
     bad = _first(~np.isfinite(pos))
     if bad is not None:
         r, c = bad
-        _raise(int(tr.segment[r]), r * tr.period, f"{tr.axes[c]} position is not a number", axis=tr.axes[c],
-               value=float(pos[r, c]), limit=None)
+        _raise(int(tr.segment[r]), tr.segment_names, r * tr.period, f"{tr.axes[c]} position is not a number",
+               axis=tr.axes[c], value=float(pos[r, c]), limit=None)
     return tr.times, tr.segment, pos, tr.period, cols
 
 
@@ -187,7 +196,7 @@ def _check_travel(found: _Found, pos, cols, machine: Machine, seg, rows_t, axes)
         if hit is not None:
             r, c = hit
             found.offer(r, lambda r=r, c=c, bound=bound, word=word: _raise(
-                int(seg[r]), float(rows_t[r]),
+                int(seg[r]), found.names, float(rows_t[r]),
                 f"{axes[c]} = {_fmt(pos[r, c])} mm beyond soft limit {word} {_fmt(bound[c])} mm", found.ticks,
                 axis=axes[c], value=float(pos[r, c]), limit=float(bound[c])))
 
@@ -210,7 +219,7 @@ def _check_dynamics(found: _Found, pos, period, cols, machine: Machine, seg, row
             r, c = hit
             row = r + shift
             found.offer(row, lambda row=row, r=r, c=c, values=values, name=name, unit=unit, limit=limit: _raise(
-                int(seg[row]), float(rows_t[row]),
+                int(seg[row]), found.names, float(rows_t[row]),
                 f"{axes[c]} {name} {_fmt(values[r, c])} {unit} over the limit {_fmt(limit[c])} {unit}",
                 axis=axes[c], value=float(values[r, c]), limit=float(limit[c])))
     peak = lambda x: np.abs(x).max(axis=0) if len(x) else np.zeros(n)  # noqa: E731
@@ -237,7 +246,7 @@ def _check_pulses(found: _Found, st: Steps, cols, machine: Machine, seg, rows_t)
             r, c = hit
             row = r + k
             found.offer(row, lambda row=row, r=r, c=c, values=values, limit=limit, name=name, unit=unit: _raise(
-                int(seg[row]), float(rows_t[row]),
+                int(seg[row]), found.names, float(rows_t[row]),
                 f"{st.axes[c]} {name} {_fmt(values[r, c])} {unit} over the limit {_fmt(limit[c])} {unit}",
                 axis=st.axes[c], value=float(values[r, c]), limit=float(limit[c])))
     return vel.max(axis=0), rate.max(axis=0)
@@ -292,5 +301,5 @@ def _check_signals(found: _Found, sig: Signal, ranges: CardRanges, rows_t, seg) 
             i = int(idx[0])
             r = int(row[i])
             found.offer(r, lambda i=i, r=r, text=text: _raise(
-                int(seg[r]), float(t[i]) if np.isfinite(t[i]) else 0.0, text(i), found.ticks,
+                int(seg[r]), found.names, float(t[i]) if np.isfinite(t[i]) else 0.0, text(i), found.ticks,
                 axis="", value=float(val[i]), limit=None, signal=int(i)))

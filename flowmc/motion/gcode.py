@@ -62,7 +62,7 @@ from pathlib import Path as FsPath
 import numpy as np
 
 from flowmc.errors import GcodeError
-from flowmc.motion.path import _RADIUS_TOL, PLANES, Arc, Dwell, Line, Path, Segment
+from flowmc.motion.path import _RADIUS_TOL, PLANES, Arc, Dwell, Line, Path, Segment, describe_segment
 
 __all__ = ["RAPID_FEED", "parse_gcode", "read_gcode", "path_to_gcode", "write_gcode"]
 
@@ -943,7 +943,7 @@ class _Writer:
         return f" F{f}"
 
     def segment(self, seg: Segment, index: int, chord_tol: float) -> None:
-        where = f"segment {index}" + (f" ({seg.source})" if seg.source else "")
+        where = describe_segment(index, seg.source)
         self.gap_to(seg.start)
         if isinstance(seg, Dwell):
             self.state(seg, True, where)

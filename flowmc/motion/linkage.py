@@ -35,7 +35,7 @@ def _per_row(value, n: int, name: str, unit: str) -> np.ndarray:
         raise PathError(f"{name} must be one number or one per move ({n}), got shape {arr.shape}")
     if not np.all(np.isfinite(arr) & (arr > 0)):
         bad = int(np.flatnonzero(~(np.isfinite(arr) & (arr > 0)))[0])
-        raise PathError(f"{name} must be > 0 {unit}, got {arr[bad]} for move {bad}")
+        raise PathError(f"{name} must be > 0 {unit}, got {arr[bad]} for move {bad + 1}")
     return arr
 
 
@@ -53,15 +53,15 @@ def linkage_table(points, step_mm, feed, max_step_rate=None, segment=None) -> Ta
     A third column (Z) counts towards each move's length and time but sends no pulses here.
     Where a move would need more than ``max_step_rate`` (Hz, one number or X and Y) on an axis, its
     feed is scaled down for that move; ``feed_mm_s`` and ``rate_limited`` report it.
-    ``segment`` labels the rows (default 0..M-1).
+    ``segment`` labels the rows with segment numbers as users count them (default 1..M: the moves).
     """
     pts = np.asarray(points, dtype=float)
     if pts.ndim != 2 or pts.shape[1] not in (2, 3) or len(pts) < 2:
         raise PathError(f"a pulse table needs at least two points of 2 or 3 coordinates, got shape {pts.shape}")
     if not np.all(np.isfinite(pts)):
-        raise PathError(f"point {int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])} is not finite")
+        raise PathError(f"point {int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0]) + 1} is not finite")
     n = len(pts) - 1
-    labels = np.arange(n) if segment is None else np.asarray(segment, dtype=np.int64)
+    labels = np.arange(1, n + 1) if segment is None else np.asarray(segment, dtype=np.int64)
     if labels.shape != (n,):
         raise PathError(f"segment labels must be one per move ({n}), got shape {labels.shape}")
     step = _pair(step_mm, "step_mm", "mm")
@@ -69,7 +69,7 @@ def linkage_table(points, step_mm, feed, max_step_rate=None, segment=None) -> Ta
     lengths = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     if np.any(lengths == 0):
         i = int(np.flatnonzero(lengths == 0)[0])
-        raise PathError(f"zero-length move: points {i} and {i + 1} are both {pts[i].tolist()}",
+        raise PathError(f"zero-length move: points {i + 1} and {i + 2} are both {pts[i].tolist()}",
                         where=f"segment {labels[i]}")
     target = np.rint(pts[:, :2] / step).astype(np.int64)
     pulses = np.diff(target, axis=0)
@@ -101,9 +101,9 @@ def linkage_table(points, step_mm, feed, max_step_rate=None, segment=None) -> Ta
 def path_linkage_table(path: Path, step_mm, max_step_rate=None, chord_tol: float | None = None) -> Table:
     """Pulse table for a path: lines as they are, arcs and curves as chords within ``chord_tol`` mm.
 
-    Rows carry the path segment index. Each segment runs at its own feed; a dwell is a row with
-    no pulses that lasts its seconds; segments that do not move are left out. ``chord_tol``
-    defaults to half the smaller step.
+    Rows carry the path's segment number (1-based, as Measure path and messages count). Each
+    segment runs at its own feed; a dwell is a row with no pulses that lasts its seconds; segments
+    that do not move are left out. ``chord_tol`` defaults to half the smaller step.
     """
     step = _pair(step_mm, "step_mm", "mm")
     tol = 0.5 * float(step.min()) if chord_tol is None else float(chord_tol)
@@ -113,7 +113,7 @@ def path_linkage_table(path: Path, step_mm, max_step_rate=None, chord_tol: float
     last = None
     for i, seg in enumerate(path):
         if isinstance(seg, Dwell):
-            dwells.append((len(labels), i, seg.seconds))
+            dwells.append((len(labels), i + 1, seg.seconds))
             continue
         if seg.length == 0.0:
             continue
@@ -125,7 +125,7 @@ def path_linkage_table(path: Path, step_mm, max_step_rate=None, chord_tol: float
         pts = pts[np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)]]
         points.append(pts[1:])
         feeds.append(np.full(len(pts) - 1, seg.feed))
-        labels.append(np.full(len(pts) - 1, i))
+        labels.append(np.full(len(pts) - 1, i + 1))
         last = pts[-1]
     if labels:
         table = linkage_table(np.vstack(points), step, np.concatenate(feeds), max_step_rate,

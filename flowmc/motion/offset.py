@@ -24,16 +24,12 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PathError
-from flowmc.motion.path import Arc, Dwell, Line, Path, Segment
+from flowmc.motion.path import Arc, Dwell, Line, Path, Segment, describe_segment
 
 __all__ = ["offset_path"]
 
 _TOL = 1e-9  # mm: offsets that meet closer than this need no corner
 _STATE = ("feed", "rapid", "tool_down", "spindle", "outputs", "analog", "source")
-
-
-def _label(index: int, seg: Segment) -> str:
-    return f"segment {index} ({seg.source})" if seg.source else f"segment {index}"
 
 
 def _state(seg: Segment, **changes) -> dict:
@@ -73,7 +69,7 @@ class _Piece:
 
     @property
     def where(self) -> str:
-        return _label(self.index, self.seg)
+        return describe_segment(self.index, self.seg.source)
 
     @property
     def is_line(self) -> bool:
@@ -144,7 +140,8 @@ def _piece(index: int, seg: Segment, r: float, sign: float) -> _Piece:
     if radius <= _TOL:
         raise PathError(
             f"the tool radius {r:g} mm is not smaller than this arc's radius {seg.radius:g} mm on the "
-            f"offset side: the offset arc would have radius {radius:g} mm", where=_label(index, seg))
+            f"offset side: the offset arc would have radius {radius:g} mm",
+            where=describe_segment(index, seg.source))
     return _Piece(index, seg, c=np.array(seg.center[:2]), radius=radius, theta0=seg.start_angle, sweep=seg.sweep)
 
 
@@ -246,7 +243,7 @@ def _moves_in_xy(index: int, seg: Segment) -> bool:
         return True
     what = f"an arc in the {seg.plane} plane" if isinstance(seg, Arc) else f"a {seg.kind}"
     raise PathError(f"tool-radius offset handles lines and XY arcs only; this segment is {what}",
-                    where=_label(index, seg))
+                    where=describe_segment(index, seg.source))
 
 
 def _placed(seg: Segment, xy: np.ndarray) -> Segment:
@@ -300,7 +297,8 @@ def _relinked(rapids: list[tuple[int, Segment]], start: np.ndarray | None, end: 
         i = rapids[pos][0]
         seg = out[pos]
         if not isinstance(seg, Line):
-            raise PathError(f"a rapid {seg.kind} cannot be re-aimed at the offset path", where=_label(i, seg))
+            raise PathError(f"a rapid {seg.kind} cannot be re-aimed at the offset path",
+                            where=describe_segment(i, seg.source))
         out[pos] = Line(point, seg.end, **_state(seg)) if pos == 0 else Line(seg.start, point, **_state(seg))
     return out
 
@@ -308,7 +306,7 @@ def _relinked(rapids: list[tuple[int, Segment]], start: np.ndarray | None, end: 
 def offset_path(path: Path, radius: float, side: Literal["left", "right"]) -> Path:
     """The path offset by ``radius`` to the ``side`` of travel (left: G41, right: G42), in XY.
 
-    Lines and XY arcs only; errors name the segment (``segment 3 (row 4)``).
+    Lines and XY arcs only; errors name the segment, 1-based with its source (``segment 4 (row 4)``).
     """
     if side not in ("left", "right"):
         raise PathError(f"offset side must be 'left' or 'right', got {side!r}")

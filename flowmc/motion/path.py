@@ -29,6 +29,7 @@ __all__ = [
     "Path",
     "PLANES",
     "chord_count",
+    "describe_segment",
 ]
 
 #: Arc planes by their normal axis index, as G17/G18/G19 name them. Plane coordinates (u, v) are
@@ -45,6 +46,22 @@ def _vec3(value, name: str) -> np.ndarray:
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise PathError(f"{name} must be 2 or 3 finite numbers, got {value!r}")
     return frozen_array(arr)
+
+
+def describe_segment(index: int, names: str | Sequence[str] = ()) -> str:
+    """How every user-facing message names segment ``index`` (0-based) of a path or of a planned program.
+
+    Users count segments from 1 and know them by where they came from, so the name is the 1-based
+    number and the segment's ``source``: ``describe_segment(4, ("", "row 1", ..., "row 4"))`` is
+    ``"segment 5 (row 4)"``. ``names`` is the segment's own name (a str) or one name per segment
+    (``Path.segment_names()``, ``Trajectory.segment_names``); without a name: ``"segment 5"``.
+    """
+    index = int(index)
+    if isinstance(names, str):
+        name = names
+    else:
+        name = names[index] if 0 <= index < len(names) else ""
+    return f"segment {index + 1} ({name})" if name else f"segment {index + 1}"
 
 
 def chord_count(length: float, min_radius: float, tol: float) -> int:
@@ -541,7 +558,7 @@ class Path:
         segs = tuple(segments)
         for i, seg in enumerate(segs):
             if not isinstance(seg, Segment):
-                raise PathError(f"segment {i} is a {type(seg).__name__}, not a path segment")
+                raise PathError(f"{describe_segment(i)} is a {type(seg).__name__}, not a path segment")
         object.__setattr__(self, "segments", segs)
 
     def __len__(self) -> int:
@@ -552,6 +569,11 @@ class Path:
 
     def __getitem__(self, i):
         return self.segments[i]
+
+    def segment_names(self) -> tuple[str, ...]:
+        """Each segment's ``source`` ("" where it has none): what a Trajectory or Steps planned from this
+        path carries as ``segment_names``, so messages can say ``segment 5 (row 4)``."""
+        return tuple(seg.source or "" for seg in self.segments)
 
     @property
     def start(self) -> np.ndarray:

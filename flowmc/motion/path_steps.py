@@ -28,7 +28,7 @@ import numpy as np
 
 from flowmc.errors import PathError
 from flowmc.motion import stepinterp
-from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, Path
+from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, Path, describe_segment
 from flowmc.motion.signals import path_signals, step_start_times
 from flowmc.motion.trajectory import Steps
 
@@ -36,10 +36,6 @@ __all__ = ["path_to_steps", "METHODS"]
 
 #: Interpolation methods: point-by-point comparison and DDA.
 METHODS = ("pbp", "dda")
-
-
-def _where(i: int, seg) -> str:
-    return f"segment {i} ({seg.source})" if seg.source else f"segment {i}"
 
 
 def _grid(point, step: np.ndarray) -> tuple[int, int]:
@@ -158,7 +154,8 @@ def _segment_streams(seg, cur, step, tol, interp: _Interp):
 
 def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None = None, preset: str = "half",
                   chord_tol: float | None = None, tick: float = 0.0) -> Steps:
-    """X/Y step streams for a path, one block per segment, concatenated; ``Steps.segment`` says whose.
+    """X/Y step streams for a path, one block per segment, concatenated; ``Steps.segment`` says whose
+    and ``Steps.segment_names`` where each segment came from.
 
     ``method`` is "pbp" (point-by-point comparison) or "dda"; ``bits`` and ``preset`` set the DDA
     register (None: sized per move). ``chord_tol`` (mm, default half the smaller step) is the
@@ -181,7 +178,7 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
         try:
             streams = _segment_streams(seg, cur, step, tol, interp)
         except PathError as exc:
-            raise PathError(exc.message, where=_where(i, seg)) from None
+            raise PathError(exc.message, where=describe_segment(i, seg.source)) from None
         for st in streams:
             blocks.append(st.steps)
             labels.append(np.full(len(st.steps), i, dtype=np.int64))
@@ -190,4 +187,4 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
     segment = np.concatenate(labels) if labels else np.zeros(0, dtype=np.int64)
     signals = path_signals(path, step_start_times(segment, tick, len(path)))
     return Steps(steps, step, np.array(origin, dtype=float) * step, tick=tick, segment=segment, axes=("X", "Y"),
-                 signals=signals)
+                 signals=signals, segment_names=path.segment_names())

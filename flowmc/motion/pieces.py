@@ -22,7 +22,7 @@ import numpy as np
 
 from flowmc.errors import PlanningError
 from flowmc.motion.machine import Machine
-from flowmc.motion.path import Arc, Dwell, Line, Path, PLANES
+from flowmc.motion.path import Arc, Dwell, Line, Path, PLANES, describe_segment
 
 __all__ = ["LINE", "ARC", "CURVE", "DWELL", "REVERSAL", "Pieces", "build_pieces", "corner_angle", "machine_limits"]
 
@@ -162,10 +162,6 @@ class _Rows:
         )
 
 
-def _where(seg, i: int) -> str:
-    return f"segment {i}" + (f" ({seg.source})" if seg.source else "")
-
-
 def _line_limits(u, feed, vmax, amax, jmax):
     """Path speed, acceleration and jerk limits along unit directions u (n, 3): min_i limit_i / |u_i|."""
     mag = np.abs(u)
@@ -186,7 +182,7 @@ def _feed(seg, i) -> float:
     if seg.rapid:
         return math.inf
     if not (isinstance(seg.feed, (int, float)) and seg.feed > 0 and math.isfinite(seg.feed)):
-        raise PlanningError(f"feed must be > 0 mm/s, got {seg.feed!r}", where=_where(seg, i))
+        raise PlanningError(f"feed must be > 0 mm/s, got {seg.feed!r}", where=describe_segment(i, seg.source))
     return float(seg.feed)
 
 
@@ -200,7 +196,8 @@ def _check_axes(path: Path, cols: list[int], machine: Machine) -> None:
         moved |= np.abs(pts[0, missing] - path.start[missing]) > 1e-9
         if np.any(moved):
             names = ", ".join("XYZ"[k] for k, m in zip(missing, moved) if m)
-            raise PlanningError(f"moves along {names}, which machine axes {machine.names} lack", where=_where(seg, i))
+            raise PlanningError(f"moves along {names}, which machine axes {machine.names} lack",
+                                where=describe_segment(i, seg.source))
 
 
 @dataclass
@@ -269,7 +266,7 @@ def build_pieces(path: Path, machine: Machine, blend_tol: float | None = None) -
     for i in path.gaps(1e-6):
         raise PlanningError(
             f"starts at {np.round(segs[i].start, 6).tolist()} but the segment before ends at "
-            f"{np.round(segs[i - 1].end, 6).tolist()}", where=_where(segs[i], i))
+            f"{np.round(segs[i - 1].end, 6).tolist()}", where=describe_segment(i, segs[i].source))
     lengths = np.array([seg.length for seg in segs], dtype=float)
     is_line = np.array([isinstance(seg, Line) for seg in segs]) & (lengths > _EPS_LEN)
     feeds = np.array([math.inf if isinstance(seg, Dwell) else _feed(seg, i) for i, seg in enumerate(segs)])

@@ -64,12 +64,27 @@ class Signal:
         return {"type": "Signal", "events": len(self), "kinds": sorted(set(self.kind.tolist()))}
 
 
+def _names(names, segment: np.ndarray) -> tuple[str, ...]:
+    """Segment names checked: strings, one for every segment index the rows use (or none at all)."""
+    if isinstance(names, str):
+        raise ValueError("segment_names is one name per path segment, not a single string")
+    out = tuple(names)
+    if not all(isinstance(name, str) for name in out):
+        raise ValueError("segment names must be strings")
+    if out and len(segment) and (segment.min() < 0 or segment.max() >= len(out)):
+        raise ValueError(f"segment indices {int(segment.min())}..{int(segment.max())} do not fit the "
+                         f"{len(out)} segment names")
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Setpoints at period T: row k is the commanded position at t = k*T (row 0 is the start).
 
-    ``segment[k]`` is the index of the path segment that row k belongs to, so a device or a
-    pre-flight check can name the segment of any sample.
+    ``segment[k]`` is the (0-based) index of the path segment that row k belongs to, and
+    ``segment_names[i]`` where segment i came from (its ``source``; "" for none; empty when not
+    known), so a device or a pre-flight check can name the segment of any sample as the user knows
+    it: ``describe_segment(segment[k], segment_names)`` -> ``"segment 5 (row 4)"``.
     """
 
     positions: np.ndarray
@@ -77,8 +92,10 @@ class Trajectory:
     segment: np.ndarray
     axes: tuple[str, ...] = ("X", "Y", "Z")
     signals: Signal = field(default_factory=Signal)
+    segment_names: tuple[str, ...] = ()
 
-    def __init__(self, positions, period: float, segment=None, axes=("X", "Y", "Z"), signals: Signal | None = None):
+    def __init__(self, positions, period: float, segment=None, axes=("X", "Y", "Z"), signals: Signal | None = None,
+                 segment_names=()):
         pos = frozen_array(positions, ndim=2)
         if pos.shape[1] != len(axes):
             raise ValueError(f"positions have {pos.shape[1]} columns but {len(axes)} axes {tuple(axes)}")
@@ -92,6 +109,7 @@ class Trajectory:
         object.__setattr__(self, "segment", frozen_array(seg, dtype=int))
         object.__setattr__(self, "axes", tuple(axes))
         object.__setattr__(self, "signals", signals if signals is not None else Signal())
+        object.__setattr__(self, "segment_names", _names(segment_names, self.segment))
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -117,7 +135,8 @@ class Trajectory:
         return np.linalg.norm(np.diff(self.positions, axis=0), axis=1) / self.period
 
     def digest(self) -> str:
-        return array_digest("Trajectory", self.positions, self.period, self.segment, self.axes, self.signals.digest())
+        return array_digest("Trajectory", self.positions, self.period, self.segment, self.axes, self.signals.digest(),
+                            self.segment_names)
 
     def summary(self) -> dict:
         v = self.speed() if len(self) > 1 else np.zeros(1)
@@ -145,6 +164,9 @@ class Steps:
     ``i`` steps; ``i == len(steps)`` is after the last). An untimed stream has no seconds, so its
     signal times are tick indices: ``t = i``. Extra signals sent with an untimed stream (a device's
     ``run(steps, signals)``) are read the same way.
+
+    ``segment`` and ``segment_names`` are as on a ``Trajectory``: the path segment index of each row
+    and where each segment came from.
     """
 
     steps: np.ndarray
@@ -154,8 +176,10 @@ class Steps:
     segment: np.ndarray | None = None
     axes: tuple[str, ...] = ("X", "Y")
     signals: Signal = field(default_factory=Signal)
+    segment_names: tuple[str, ...] = ()
 
-    def __init__(self, steps, step_mm, origin=None, tick: float = 0.0, segment=None, axes=("X", "Y"), signals=None):
+    def __init__(self, steps, step_mm, origin=None, tick: float = 0.0, segment=None, axes=("X", "Y"), signals=None,
+                 segment_names=()):
         st = np.asarray(steps, dtype=np.int8)
         if st.ndim != 2 or st.shape[1] != len(axes):
             raise ValueError(f"steps must have shape (N, {len(axes)}) for axes {tuple(axes)}, got {st.shape}")
@@ -170,6 +194,7 @@ class Steps:
         object.__setattr__(self, "segment", frozen_array(seg, dtype=int))
         object.__setattr__(self, "axes", tuple(axes))
         object.__setattr__(self, "signals", signals if signals is not None else Signal())
+        object.__setattr__(self, "segment_names", _names(segment_names, self.segment))
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -185,7 +210,7 @@ class Steps:
 
     def digest(self) -> str:
         return array_digest("Steps", self.steps, self.step_mm, self.origin, self.tick, self.segment, self.axes,
-                            self.signals.digest())
+                            self.signals.digest(), self.segment_names)
 
     def summary(self) -> dict:
         end = self.positions()[-1]

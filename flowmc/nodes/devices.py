@@ -21,6 +21,7 @@ from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CARD_6050
 from flowmc.errors import DeviceError, NodeError
 from flowmc.motion.machine import Axis, Machine, default_machine
+from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 from flowmc.registry import In, NodeType, Out, register
 
@@ -226,7 +227,8 @@ class Jog(NodeType):
 # ---------------------------------------------------------------- signals along a program
 
 class _At(_Params):
-    at: Annotated[float, Field(ge=0, description="Time (s) or segment index, as the node's 'at' says")]
+    at: Annotated[float, Field(ge=0, description="Time (s), or segment number (1 is the program's first segment), "
+                                                  "as the node's 'at' says")]
 
 
 class BitChange(_At):
@@ -244,11 +246,12 @@ class ValueChange(_At):
 class _SignalParams(_Params):
     at: Annotated[Literal["time", "segment"],
                   Field(description="Changes happen at a time (s; ticks with an untimed step stream) or at "
-                                    "the start of a program segment")] = "time"
+                                    "the start of a program segment (numbered from 1, as Measure path and "
+                                    "error messages count them)")] = "time"
 
 
 def _times(at: str, points: list[float], motion) -> np.ndarray:
-    """Times of the change points: as given, or each segment's first setpoint in the program."""
+    """Times of the change points: as given, or the first setpoint of each segment (numbered from 1)."""
     points = np.asarray(points, dtype=float)
     if at == "time":
         return points
@@ -256,11 +259,17 @@ def _times(at: str, points: list[float], motion) -> np.ndarray:
         raise NodeError("changes at segments need the program: wire it to 'motion'")
     seg = np.asarray(motion.segment)
     dt = motion.period if isinstance(motion, Trajectory) else motion.tick or 1.0  # untimed steps: ticks
+    names = motion.segment_names
+    count = len(names) or (int(seg.max()) + 1 if len(seg) else 0)
     times = []
     for k in points:
-        rows = np.flatnonzero(seg == int(k))
-        if int(k) != k or not len(rows):
-            raise NodeError(f"the program has no segment {k:g}", where=f"segment {k:g}")
+        if int(k) != k or not 1 <= k <= count:
+            raise NodeError(f"no such segment in the program; its segments are numbered 1 to {count}",
+                            where=f"segment {k:g}")
+        rows = np.flatnonzero(seg == int(k) - 1)
+        if not len(rows):
+            raise NodeError("this segment has no setpoints or steps in the program (it does not move)",
+                            where=describe_segment(int(k) - 1, names))
         times.append(rows[0] * dt)
     return np.array(times)
 
@@ -279,6 +288,7 @@ class DigitalIOParams(_SignalParams):
 @register
 class DigitalIO(NodeType):
     type_id = "device.digital_io"
+    version = 2  # 2: segment numbers in "at" count from 1
     title = "Digital I/O"
     category = "Devices"
     description = "Switch a digital output at times or segment starts along a program (pen up/down, relays)."
@@ -303,6 +313,7 @@ class PwmParams(_SignalParams):
 @register
 class Pwm(NodeType):
     type_id = "device.pwm"
+    version = 2  # 2: segment numbers in "at" count from 1
     title = "PWM"
     category = "Devices"
     description = "Set the PWM frequency at the start and its duty (laser power) at times or segment starts."
@@ -326,6 +337,7 @@ class AnalogParams(_SignalParams):
 @register
 class Analog(NodeType):
     type_id = "device.analog"
+    version = 2  # 2: segment numbers in "at" count from 1
     title = "Analog/spindle"
     category = "Devices"
     description = "Set the DA voltage or the spindle speed (with its run and direction outputs) along a program."

@@ -96,12 +96,13 @@ class DdaInterpolator(NodeType):
 @register
 class LinkagePulseTable(NodeType):
     type_id = "interp.linkage_table"
+    version = 2  # 2: the table's segment column counts from 1
     title = "Linkage pulse table"
     category = "Interpolation"
     description = "Per move: X/Y pulse counts, directions and frequencies so both axes arrive together."
     Params = _Params
     inputs = (_PATH_IN, _MACHINE_IN)
-    outputs = (Out("table", "Table", doc="One row per move (arcs as chords)"),
+    outputs = (Out("table", "Table", doc="One row per move (arcs as chords), with its path segment number (from 1)"),
                Out("duration", "Number", doc="Total time of the rows (s)"))
 
     def run(self, ctx, params: _Params, path: Path, machine: Machine | None = None):

@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from flowmc.errors import NodeError, PathError, PlanningError
 from flowmc.motion import nurbs, profiles, timediv
 from flowmc.motion.machine import Machine, default_machine
-from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path
+from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path, describe_segment
 from flowmc.motion.signals import path_signals
 from flowmc.motion.trajectory import Trajectory
 from flowmc.registry import In, NodeType, Out, register
@@ -35,17 +35,14 @@ def _limits(machine: Machine) -> tuple[float, float, float]:
     return min(a.vmax for a in axes), min(a.amax for a in axes), min(a.jmax for a in axes)
 
 
-def _where(i: int, seg) -> str:
-    return f"segment {i} ({seg.source})" if seg.source else f"segment {i}"
-
-
 def _check_joined(path: Path) -> None:
     if not path.segments:
         raise NodeError("the path is empty")
     gaps = path.gaps(1e-6)
     if gaps:
         i = gaps[0]
-        raise PathError(f"does not start where segment {i - 1} ends", where=_where(i, path.segments[i]))
+        raise PathError(f"does not start where {describe_segment(i - 1, path.segments[i - 1].source)} ends",
+                        where=describe_segment(i, path.segments[i].source))
 
 
 def _assemble(chunks: list[np.ndarray], period: float, path: Path) -> Trajectory:
@@ -59,7 +56,8 @@ def _assemble(chunks: list[np.ndarray], period: float, path: Path) -> Trajectory
         pts.append(chunk)
         seg_idx.append(np.full(len(chunk), i, dtype=int))
         count += len(chunk)
-    return Trajectory(np.vstack(pts), period, np.concatenate(seg_idx), signals=path_signals(path, starts))
+    return Trajectory(np.vstack(pts), period, np.concatenate(seg_idx), signals=path_signals(path, starts),
+                      segment_names=path.segment_names())
 
 
 # ---------------------------------------------------------------- NURBS interpolator
@@ -105,10 +103,11 @@ class NurbsInterpolator(NodeType):
         period = machine.period
         chunks, worst_fluct, worst_chord = [], 0.0, 0.0
         for i, seg in enumerate(path.segments):
+            where = describe_segment(i, seg.source)
             if not isinstance(seg, NurbsCurve):
                 raise PathError(f"is a {seg.kind}, not a NURBS curve: use the time-division interpolator",
-                                where=_where(i, seg))
-            curve = nurbs.Nurbs(seg.control_points, seg.weights, seg.knots, seg.degree, where=_where(i, seg))
+                                where=where)
+            curve = nurbs.Nurbs(seg.control_points, seg.weights, seg.knots, seg.degree, where=where)
             feed = min(params.feed or seg.feed, vmax)
             steps = nurbs.taylor_steps(curve, feed, period, eps=params.eps, amax=amax * _SPLIT,
                                        corrector=params.corrector)
@@ -162,7 +161,7 @@ class TimeDivisionInterpolator(NodeType):
         period, eps = machine.period, params.eps
         chunks, worst_chord, worst_radial = [], 0.0, 0.0
         for i, seg in enumerate(path.segments):
-            where = _where(i, seg)
+            where = describe_segment(i, seg.source)
             if isinstance(seg, Dwell):
                 chunks.append(np.repeat(seg.start[None, :], max(math.ceil(seg.seconds / period - 1e-9), 0) + 1, 0))
                 continue

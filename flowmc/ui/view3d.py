@@ -21,7 +21,7 @@ import viser.uplot as uplot
 
 from flowmc.devices.log import DeviceLog
 from flowmc.motion.machine import Machine
-from flowmc.motion.path import Path
+from flowmc.motion.path import Path, describe_segment
 from flowmc.motion.trajectory import Steps, Trajectory
 from flowmc.ui import view3d_data as data
 
@@ -256,7 +256,8 @@ class ToolpathView:
             p = m.points[k]
             self.marker.position = tuple(float(c) for c in p)
             v = float(m.speed[min(k, len(m.speed) - 1)]) if len(m.speed) else 0.0
-            where = f" · segment {int(m.segment[k])}" if m.segment is not None and k < len(m.segment) else ""
+            where = (f" · {describe_segment(int(m.segment[k]), m.segment_names)}"
+                     if m.segment is not None and k < len(m.segment) else "")
             coords = " ".join(f"{a} {m.positions[k, i]:.3f}" for i, a in enumerate(m.axes))
             unit = "mm/s" if m.timed else "mm/tick"
             self.readout.content = f"t = {m.t[k]:.4f} · {coords} mm · speed {v:.3f} {unit}{where}"

@@ -59,6 +59,7 @@ class Motion:
     signals: Signal = field(default_factory=Signal)
     timed: bool = True
     segment: np.ndarray | None = None  # path segment index of each sample, where known
+    segment_names: tuple[str, ...] = ()  # where each path segment came from (for describe_segment)
 
     @cached_property
     def points(self) -> np.ndarray:
@@ -86,13 +87,14 @@ class Motion:
     @classmethod
     def of(cls, value: Trajectory | Steps | DeviceLog, name: str) -> "Motion":
         if isinstance(value, Trajectory):
-            return cls(name, value.times, value.positions, value.axes, value.signals, segment=value.segment)
+            return cls(name, value.times, value.positions, value.axes, value.signals, segment=value.segment,
+                       segment_names=value.segment_names)
         if isinstance(value, Steps):
             pos = value.positions()
             timed = value.tick > 0
             t = np.arange(len(pos)) * (value.tick if timed else 1.0)
             segment = np.concatenate([value.segment[:1], value.segment])  # row 0 is the origin
-            return cls(name, t, pos, value.axes, value.signals, timed, segment)
+            return cls(name, t, pos, value.axes, value.signals, timed, segment, value.segment_names)
         if isinstance(value, DeviceLog):
             ok = np.all(np.isfinite(value.position), axis=1)  # GRBL logs hold NaN when no report came
             t, first = np.unique(value.t[ok], return_index=True)  # status reports may repeat a time

@@ -35,7 +35,7 @@ def thesis_trajectory(period: float = 0.001, feed: float = 20.0, amax: float = 2
         along = sample_profile(plan_trapezoid(s.length, 0.0, 0.0, feed, amax), period)
         pts.append(s.point_at(along[1:]))
         seg.append(np.full(len(along) - 1, i))
-    return Trajectory(np.vstack(pts), period, np.concatenate(seg))
+    return Trajectory(np.vstack(pts), period, np.concatenate(seg), segment_names=path.segment_names())
 
 
 def line_trajectory(start, end, period: float = 0.001, feed: float = 50.0, amax: float = 200.0,

@@ -24,7 +24,7 @@ def _pattern_graph(device_params: dict | None = None, machine_params: dict | Non
     g.wire(p.path, i.path)
     g.wire(m.machine, i.machine)
     pen = g.add("device.digital_io", id="pen", channel=3, at="segment",
-                changes=[{"at": 0, "on": True}, {"at": 5, "on": False}])
+                changes=[{"at": 1, "on": True}, {"at": 6, "on": False}])  # segments count from 1
     g.wire(i.trajectory, pen.motion)
     spindle = g.add("device.analog", id="spindle", mode="rpm", changes=[{"at": 0.0, "value": 12000.0}])
     g.wire(pen.signals, spindle.signals)
@@ -67,8 +67,64 @@ def test_preflight_failure_in_card_output_names_the_segment_and_sends_nothing():
     result = flowmc.run(_pattern_graph(machine_params={"axes": axes}).build())
     assert not result.ok
     assert result.nodes["card"].status == "failed"
-    assert "segment 3: X = -60.00" in result.nodes["card"].error
+    assert "node 'card': segment 4 (row 4): X = -60.00" in result.nodes["card"].error
     assert "beyond soft limit min -60 mm" in result.nodes["card"].error
+
+
+def test_preflight_names_the_table_row_behind_a_spin_up_dwell():
+    """The thesis pattern behind lib.spindle_on's spin-up dwell on a machine whose X travel is -60..60:
+    the first setpoint past X = -60 is on the cw arc, the table's row 4, which is the program's 5th segment."""
+    g = flowmc.GraphBuilder(title="thesis pattern, spindle on, short X travel")
+    axes = [{"name": "X", "min": -60, "max": 60}, {"name": "Y"}, {"name": "Z", "min": -50, "max": 50}]
+    m = g.add("machine", id="m", period=0.001, axes=axes)
+    p = g.add("path.segment_table", id="p", rows=ROWS, feed=20.0)
+    spindle = g.add("lib.spindle_on", id="spindle")
+    plan = g.add("plan.lookahead", id="plan")
+    check = g.add("device.preflight", id="check")
+    g.wire(p.path, spindle.path)
+    g.wire(spindle.path, plan.path)
+    g.wire(m.machine, plan.machine)
+    g.wire(plan.trajectory, check.motion)
+    g.wire(m.machine, check.machine)
+    result = flowmc.run(g.build())
+    path = result.nodes["spindle"].outputs["path"]
+    assert path.segments[0].kind == "dwell" and path.segments[0].source == "node spindle: spin-up"
+    arc = path.segments[4]
+    assert ROWS[3]["type"] == "arc" and ROWS[3]["direction"] == "cw"
+    assert arc.kind == "arc" and not arc.ccw and arc.source == "row 4"
+    traj = result.nodes["plan"].outputs["trajectory"]
+    assert traj.segment_names == path.segment_names()
+    first = int(np.flatnonzero(traj.positions[:, 0] < -60.0)[0])
+    assert traj.segment[first] == 4  # 0-based index 4: segment 5 as users count
+    assert result.nodes["check"].status == "failed"
+    error = result.nodes["check"].error
+    assert error.startswith("node 'check': segment 5 (row 4): X = -60.0")
+    assert f"beyond soft limit min -60 mm at t={first * traj.period:.3f} s" in error
+
+
+def test_changes_at_segments_count_from_one_and_a_missing_segment_is_named():
+    def run_pen(at: list[float]):
+        g = flowmc.GraphBuilder()
+        m = g.add("machine", id="m", period=0.001)
+        p = g.add("path.segment_table", id="p", rows=ROWS, feed=20.0)
+        i = g.add("interp.time_division", id="i", profile="trapezoid")
+        g.wire(p.path, i.path)
+        g.wire(m.machine, i.machine)
+        pen = g.add("device.digital_io", id="pen", channel=3, at="segment",
+                    changes=[{"at": k, "on": True} for k in at])
+        g.wire(i.trajectory, pen.motion)
+        g.output("signals", "Signal", pen.signals)
+        return flowmc.run(g.build())
+
+    result = run_pen([1, 2, 6])
+    assert result.ok, result.errors
+    traj = result.nodes["i"].outputs["trajectory"]
+    starts = [int(np.flatnonzero(traj.segment == k)[0]) * traj.period for k in (0, 1, 5)]
+    assert result.outputs["signals"].t.tolist() == pytest.approx(starts)
+    assert starts[0] == 0.0 < starts[1]  # segment 1 is the first row's segment, at the program's start
+    for at in (0, 7, 2.5):
+        error = run_pen([at]).nodes["pen"].error
+        assert error == f"node 'pen': segment {at:g}: no such segment in the program; its segments are numbered 1 to 6"
 
 
 def test_preflight_node_reports_per_axis_figures():

@@ -49,6 +49,9 @@ def test_an_error_at_line_n_stops_there_and_says_so(grbl_sim, machine):
         e = err.value
         assert e.line == n
         assert e.where == f"line {n} ({program[n - 1].source})"
+        row = int(program[n - 1].source.split()[1])  # "setpoint <row> of segment <k> (row <k>)"
+        k = int(tr.segment[row]) + 1
+        assert program[n - 1].source == f"setpoint {row} of segment {k} (row {k})"  # as users count segments
         assert "GRBL error:33 (invalid motion target)" in e.message and repr(program[n - 1].text) in e.message
         assert f"{n - 1} lines before it acknowledged" in e.message
         assert e.log.outcome == "error" and e.log.state["acknowledged"] == n - 1

@@ -145,10 +145,12 @@ def test_preflight_checks_tool_events_and_names_segments_of_untimed_streams_by_t
     with pytest.raises(LimitError, match="tool channel 2"):
         preflight(steps, PLOTTER, Signal([0.0], ["tool"], [2], [1.0]))
     rows = first_rows(steps.segment, path)
-    late = Signal([rows[6] + 3], ["dout"], [12], [1.0])  # 3 ticks into segment 6, in tick units
+    late = Signal([rows[6] + 3], ["dout"], [12], [1.0])  # 3 ticks into segment index 6, in tick units
     with pytest.raises(LimitError, match=rf"digital output 12 does not exist .* at tick {rows[6] + 3}") as err:
         preflight(steps, PLOTTER, late)
-    assert err.value.where == "segment 6"
+    assert path.segments[6].source == "image contour 2"
+    assert err.value.where == "segment 7 (image contour 2)"  # 1-based, with where the segment came from
+    assert err.value.details["segment"] == 7 and err.value.details["source"] == "image contour 2"
     far = Steps(np.ones((30, 2), dtype=np.int8), STEP, origin=(199.9, 0.0), axes=("X", "Y"))
     with pytest.raises(LimitError, match=r"X = 200.01 mm beyond soft limit max 200 mm at tick 11"):
         preflight(far, PLOTTER)

@@ -16,7 +16,7 @@ from device_programs import line_trajectory, machine, thesis_trajectory  # noqa:
 
 
 def _pattern_over_soft_limit():
-    """The thesis pattern on a machine whose X travel stops at -60 mm: the cw arc (segment index 3) runs to X = -75."""
+    """The thesis pattern on a machine whose X travel stops at -60 mm: the cw arc (row 4) runs to X = -75."""
     machine = Machine(axes=(Axis(name="X", min=-60.0, max=60.0), Axis(name="Y"), Axis(name="Z", min=-50, max=50)),
                       period=0.001)
     return thesis_trajectory(), machine
@@ -29,10 +29,12 @@ def test_a_program_crossing_a_soft_limit_is_refused_naming_segment_time_axis_val
     e = err.value
     rows = np.flatnonzero(tr.positions[:, 0] < -60.0)
     first = rows[0]
-    assert e.where == f"segment {tr.segment[first]}" == "segment 3"
+    assert tr.segment[first] == 3  # index 3: the fourth segment, the table's row 4
+    assert e.where == "segment 4 (row 4)"
+    assert e.details["segment"] == 4 and e.details["source"] == "row 4"
     assert e.details["t"] == pytest.approx(first * tr.period)
     assert e.details["axis"] == "X" and e.details["value"] == pytest.approx(tr.positions[first, 0])
-    assert str(e).startswith("segment 3: X = -60.00")
+    assert str(e).startswith("segment 4 (row 4): X = -60.00")
     assert "beyond soft limit min -60 mm at t=" in str(e)
 
 
@@ -53,7 +55,8 @@ def test_velocity_acceleration_and_step_rate_are_checked():
     fast = Trajectory(np.column_stack([150.0 * t]), 0.001, segment=np.repeat([0, 1], 100), axes=("X",))
     with pytest.raises(LimitError, match=r"X velocity 150 mm/s over the limit 100 mm/s") as err:
         preflight(fast, m)
-    assert err.value.where == "segment 0"
+    assert err.value.where == "segment 1" and err.value.details["segment"] == 1  # no names: the number alone
+    assert err.value.details["source"] == ""
     m2 = Machine(axes=(Axis(name="X", vmax=300.0, amax=500.0, max_step_rate=30_000.0),), period=0.001)
     with pytest.raises(LimitError, match=r"X step rate 60,000 Hz over the limit 30,000 Hz"):
         preflight(fast, m2)
@@ -61,7 +64,7 @@ def test_velocity_acceleration_and_step_rate_are_checked():
                       segment=np.repeat([0, 1], 100), axes=("X",))
     with pytest.raises(LimitError, match=r"X acceleration .* over the limit 500 mm/s\^2") as err:
         preflight(jerk, m2)
-    assert err.value.where == "segment 1" and err.value.details["t"] == pytest.approx(0.101, abs=0.0015)
+    assert err.value.where == "segment 2" and err.value.details["t"] == pytest.approx(0.101, abs=0.0015)
 
 
 def test_acceleration_gets_one_percent_slack():
@@ -108,7 +111,7 @@ def test_steps_are_checked_for_travel_and_pulse_rate():
         preflight(far, slow)
     with pytest.raises(LimitError, match=r"X = 1.0025 mm beyond soft limit max 1 mm") as err:
         preflight(far, m)
-    assert err.value.where == "segment 1"
+    assert err.value.where == "segment 2"
     with pytest.raises(DeviceError, match="pulse equivalent"):
         preflight(Steps(np.ones((5, 2), dtype=np.int8), 0.01, tick=0.001, axes=("X", "Y")), m)
 

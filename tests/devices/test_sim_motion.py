@@ -9,7 +9,7 @@ from flowmc.devices.sim import AxisSwitches, HomingSettings, SimCard
 from flowmc.devices.sim.world import switch_inputs
 from flowmc.errors import DeviceError
 
-from device_programs import line_trajectory, machine  # noqa: F401 (fixtures: machine)
+from device_programs import line_trajectory, machine, thesis_trajectory  # noqa: F401 (fixtures: machine)
 
 STEP = 0.0025
 
@@ -114,6 +114,17 @@ def test_soft_limits_stop_an_unchecked_program(machine):
     assert log.outcome == "soft_limit"
     assert log.position[:, 2].max() == pytest.approx(50.0)
     assert "soft limit max 50 mm" in log.events_of("soft_limit")[0].message
+    assert log.events_of("soft_limit")[0].message.endswith("(segment 1)")  # the program names no segments
+
+
+def test_a_soft_limit_event_names_the_segment_as_the_user_knows_it():
+    from flowmc.motion.machine import Axis, Machine
+
+    short_x = Machine(axes=(Axis(name="X", min=-60.0, max=60.0), Axis(name="Y"), Axis(name="Z", min=-50, max=50)),
+                      period=0.001)
+    log = SimCard(short_x).run(thesis_trajectory(), check=False)  # the cw arc, row 4, runs to X = -75
+    assert log.outcome == "soft_limit"
+    assert log.events_of("soft_limit")[0].message.endswith("(segment 4 (row 4))")
 
 
 @pytest.mark.parametrize("closed_loop", [False, True])

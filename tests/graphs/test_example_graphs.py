@@ -1,6 +1,7 @@
 """Every example graph runs headless and checks the numbers its paper is about."""
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -78,9 +79,11 @@ def test_laser_duty_follows_the_cuts_and_ends_off():
     off = result.nodes["laser_off_now"].outputs["log"]
     assert [c.value for c in off.changes if c.kind == "pwm_duty"] == [0.0]
     traj = result.nodes["plan"].outputs["trajectory"]
-    # The laser is on exactly while the frame and the circle are traced (segments 0-3 and 5).
-    t_rapid = np.flatnonzero(traj.segment == 4)[0] * traj.period
-    assert duty[1][0] == pytest.approx(t_rapid)
+    # The laser is on exactly while the frame and the circle are traced: segments 1-4 and 6 as the PWM
+    # node's "at" counts them (indices 0-3 and 5 of traj.segment); segment 5 is the rapid between them.
+    assert traj.segment_names[4] == "join"
+    first = [np.flatnonzero(traj.segment == k)[0] * traj.period for k in (0, 4, 5)]
+    assert [t for t, _ in duty] == pytest.approx(first)
 
 
 def test_dsp_improved_arc_keeps_the_radius_and_pid_follows():
@@ -152,4 +155,7 @@ def test_xy_plotter_refuses_a_drawing_past_the_table_edge_before_motion():
     assert not result.ok
     error = result.nodes["card"].error
     assert "segment" in error and "soft limit" in error and "X" in error
+    # 1-based, with the contour the segment came from
+    assert re.match(r"node 'card': segment [1-9]\d* \(house\.png contour [1-9]\d*\): X = [\d.]+ mm beyond soft limit max",
+                    error), error
     assert "log" not in result.nodes["card"].outputs  # nothing was sent

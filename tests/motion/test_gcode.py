@@ -506,7 +506,7 @@ def test_decimals_control_the_printed_precision():
 
 def test_bad_output_channel_is_an_error_naming_the_segment():
     path = Path([Line((0, 0, 0), (1, 0, 0), feed=10.0, outputs=((-1, True),), source="row 1")])
-    with pytest.raises(GcodeError, match=r"segment 0 \(row 1\): output channel"):
+    with pytest.raises(GcodeError, match=r"^segment 1 \(row 1\): output channel"):
         path_to_gcode(path)
 
 

@@ -99,7 +99,7 @@ def test_a_register_too_small_fails_the_node_naming_the_segment():
     g.output("steps", "Steps", node.steps)
     result = flowmc.run(g.build())
     assert not result.ok
-    assert result.errors == ["node 'interp': segment 0 (row 1): DDA register too small for this line: 10 bits hold "
+    assert result.errors == ["node 'interp': segment 1 (row 1): DDA register too small for this line: 10 bits hold "
                              "integrands below 1024, but it needs 4800 (at least 13 bits)"]
 
 

@@ -103,9 +103,9 @@ def test_path_table_cuts_arcs_into_chords_and_keeps_segment_numbers():
     step = [0.01, 0.02]
     t = path_linkage_table(path, step, max_step_rate=[50_000.0, 50_000.0], chord_tol=0.001)
     seg = t["segment"]
-    assert seg[0] == 0 and set(seg.tolist()) == {0, 1, 2, 3, 5}
+    assert seg[0] == 1 and set(seg.tolist()) == {1, 2, 3, 4, 6}  # segment numbers count from 1
     assert np.all(np.diff(seg) >= 0)
-    dwell = t.to_rows()[int(np.flatnonzero(seg == 2)[0])]
+    dwell = t.to_rows()[int(np.flatnonzero(seg == 3)[0])]
     assert dwell["duration_s"] == 0.75 and dwell["x_pulses"] == dwell["y_pulses"] == 0
     # the chords' pulses add up to the end point in steps
     x = np.sum(t["x_pulses"] * t["x_dir"])
@@ -114,7 +114,7 @@ def test_path_table_cuts_arcs_into_chords_and_keeps_segment_numbers():
     # each chord of the arc stays within the chord tolerance: rebuild the points in mm
     xs = np.concatenate([[0], np.cumsum(t["x_pulses"] * t["x_dir"])]) * step[0]
     ys = np.concatenate([[0], np.cumsum(t["y_pulses"] * t["y_dir"])]) * step[1]
-    arc_rows = np.flatnonzero(seg == 1)
+    arc_rows = np.flatnonzero(seg == 2)
     radius = np.hypot(xs[arc_rows + 1], ys[arc_rows + 1])
     assert np.abs(radius - 10).max() <= 0.01  # points on the circle to half a step
     assert len(arc_rows) >= math.ceil(10 * math.pi / (2 * math.sqrt(2 * 10 * 0.001)))
@@ -129,20 +129,20 @@ def test_path_table_cuts_arcs_into_chords_and_keeps_segment_numbers():
 def test_path_table_closes_a_gap_between_segments():
     path = Path([Line((0, 0, 0), (5, 0, 0)), Line((5, 2, 0), (5, 7, 0))])
     t = path_linkage_table(path, [0.01, 0.01])
-    assert t["segment"].tolist() == [0, 1, 1]
+    assert t["segment"].tolist() == [1, 2, 2]
     assert t["y_pulses"].tolist() == [0, 200, 500]
 
 
 @pytest.mark.parametrize("call, message", [
     (lambda: linkage_table([[0, 0], [1, 1], [1, 1], [2, 0]], [0.01, 0.01], 10.0),
-     "segment 1: zero-length move: points 1 and 2 are both [1.0, 1.0]"),
-    (lambda: linkage_table([[0, 0], [1, 1]], [0.01, 0.01], 0.0), "feed must be > 0 mm/s, got 0.0 for move 0"),
+     "segment 2: zero-length move: points 2 and 3 are both [1.0, 1.0]"),
+    (lambda: linkage_table([[0, 0], [1, 1]], [0.01, 0.01], 0.0), "feed must be > 0 mm/s, got 0.0 for move 1"),
     (lambda: linkage_table([[0, 0], [1, 1]], [0.01, -1], 5.0), "step_mm must be > 0 mm for X and Y"),
     (lambda: linkage_table([[0, 0], [1, 1]], [0.01, 0.01], 5.0, max_step_rate=0), "max_step_rate must be > 0 Hz"),
     (lambda: linkage_table([[0, 0]], [0.01, 0.01], 5.0), "at least two points"),
     (lambda: linkage_table([[0, 0], [1, 1], [2, 2]], [0.01, 0.01], [5.0]),
      "feed must be one number or one per move (2)"),
-    (lambda: linkage_table([[0, 0], [np.nan, 1]], [0.01, 0.01], 5.0), "point 1 is not finite"),
+    (lambda: linkage_table([[0, 0], [np.nan, 1]], [0.01, 0.01], 5.0), "point 2 is not finite"),
 ])
 def test_bad_input_is_a_path_error(call, message):
     with pytest.raises(PathError) as info:

@@ -128,7 +128,8 @@ def test_nurbs_node_refuses_lines():
     g.wire(poly.path, interp.path)
     result = flowmc.run(g.build())
     assert not result.ok
-    assert "segment 0" in result.nodes["interp"].error and "time-division" in result.nodes["interp"].error
+    assert result.nodes["interp"].error.startswith("node 'interp': segment 1 (point 1): is a line, not a NURBS")
+    assert "time-division" in result.nodes["interp"].error
 
 
 def _table_graph(profile, method, period=0.004):

@@ -107,7 +107,7 @@ def test_an_inward_tool_as_large_as_the_arc_is_refused_naming_the_segment():
     path = Path([Line((20, 0), (10, 0), source="row 1"), Arc((10, 0, 0), (10, 0, 0), (0, 0, 0), source="row 2")])
     with pytest.raises(PathError) as err:
         offset_path(path, 10.0, "left")
-    assert str(err.value).startswith("segment 1 (row 2):") and "radius" in str(err.value)
+    assert str(err.value).startswith("segment 2 (row 2):") and "radius" in str(err.value)
 
 
 # ------------------------------------------------------------------ line-arc and arc-arc joins
@@ -215,7 +215,7 @@ def test_feed_and_tool_state_follow_their_segments():
                  Line((10, 0), (10, 10), feed=7.0, spindle=1000.0, outputs=((3, True),), source="b")])
     out = offset_path(path, 1.0, "right")
     assert [(s.feed, s.spindle) for s in out] == [(5.0, 1000.0), (7.0, 1000.0), (7.0, 1000.0)]
-    assert out[1].source == "segment 1 (b) corner" and out[1].outputs == ()
+    assert out[1].source == "segment 2 (b) corner" and out[1].outputs == ()
     assert out[2].outputs == ((3, True),) and out[2].source == "b"
 
 
@@ -263,10 +263,10 @@ def test_a_tool_too_large_for_a_square_is_refused_naming_a_segment():
 
 def test_ellipses_and_other_plane_arcs_are_refused_naming_the_segment():
     path = Path([Line((0, 0), (1, 0)), EllipseArc.from_axes((1, 1, 0), 2, 1, 0, -math.pi / 2, 0, source="e.ngc:4")])
-    with pytest.raises(PathError, match=r"^segment 1 \(e.ngc:4\): .*lines and XY arcs"):
+    with pytest.raises(PathError, match=r"^segment 2 \(e.ngc:4\): .*lines and XY arcs"):
         offset_path(path, 1.0, "left")
     xz = Path([Arc((1, 0, 0), (0, 0, 1), (0, 0, 0), normal_axis=1)])
-    with pytest.raises(PathError, match=r"^segment 0: .*XZ plane"):
+    with pytest.raises(PathError, match=r"^segment 1: .*XZ plane"):
         offset_path(xz, 0.1, "left")
 
 

@@ -128,7 +128,7 @@ def test_tool_offset_of_an_ellipse_fails_naming_the_row():
     off = g.add("path.tool_offset", id="off", radius=1.0)
     g.wire(table.path, off.path)
     result = flowmc.run(g.build())
-    assert result.nodes["off"].error.startswith("node 'off': segment 1 (row 2): tool-radius offset handles lines")
+    assert result.nodes["off"].error.startswith("node 'off': segment 2 (row 2): tool-radius offset handles lines")
 
 
 # ------------------------------------------------------------------ transforms and join

@@ -146,7 +146,7 @@ def test_tick_and_step_sizes_are_carried_to_the_steps_value():
     (lambda: path_to_steps(Path.polyline([(0, 0), (1, 1)]), [0.01, 0.01], "spline"), "method must be one of"),
     (lambda: path_to_steps(Path.polyline([(0, 0), (1, 1)]), [0.0, 0.01]), "step_mm must be > 0 mm"),
     (lambda: path_to_steps(Path.polyline([(0, 0), (0.1, 0.1), (5, 1)]), [0.01, 0.01], "dda", bits=8),
-     "segment 1 (point 2): DDA register too small for this line: 8 bits hold integrands below 256, but it needs 490"),
+     "segment 2 (point 2): DDA register too small for this line: 8 bits hold integrands below 256, but it needs 490"),
     (lambda: path_to_steps(Path.polyline([(0, 0), (1, 1)]), [0.01, 0.01], chord_tol=0), "chord tolerance must be > 0"),
 ])
 def test_bad_input_names_the_segment(call, message):

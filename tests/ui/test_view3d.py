@@ -79,6 +79,9 @@ def test_slider_moves_marker_to_the_sample_at_that_time(view, planned):
         k = round(t / traj.period)
         np.testing.assert_allclose(view.marker.position, traj.positions[k], atol=1e-9)
         assert f"t = {k * traj.period:.4f}" in view.readout.content
+        # the segment as users count it, with the table row it came from
+        i = int(traj.segment[k])
+        assert view.readout.content.endswith(f" · segment {i + 1} (row {i + 1})")
     view.set_time(1e9)  # clamped to the end
     np.testing.assert_allclose(view.marker.position, traj.positions[-1])
 

@@ -31,6 +31,7 @@ from flowmc.devices.sim.pid import LoopSettings, PositionLoop
 from flowmc.devices.sim.world import N_CARD_AXES, N_INPUTS, AxisSwitches, default_switches, switch_inputs
 from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
+from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
 __all__ = ["SimCard"]
@@ -344,14 +345,14 @@ class SimCard(MotionCard):
             if piece.estop or piece.trips:
                 return self._log()
         piece = self._execute(program, rules)
-        piece.events = [self._in_segment(e, piece.t0, segment) for e in piece.events]
+        piece.events = [self._in_segment(e, piece.t0, segment, motion.segment_names) for e in piece.events]
         last = len(program) - 1 if piece.estop_row is None else min(len(program) - 1, piece.estop_row)
         piece.changes += self._apply_signals(sig, self._outputs, piece.t0, last, program_dt)
         return self._log()
 
-    def _in_segment(self, event: Event, t0: int, segment: np.ndarray) -> Event:
+    def _in_segment(self, event: Event, t0: int, segment: np.ndarray, names: tuple[str, ...]) -> Event:
         row = min(int(round(event.t / self.period)) - t0, len(segment) - 1)
-        return event._replace(message=f"{event.message} (segment {int(segment[row])})")
+        return event._replace(message=f"{event.message} ({describe_segment(int(segment[row]), names)})")
 
     def _apply_signals(self, sig: Signal, outputs: Outputs, t0: int, last_row: int, dt: float) -> list[Change]:
         """Set the outputs a program's signals ask for, each at the first period at or after its time."""
