@@ -1,0 +1,275 @@
+"""The editor: ``flowmc serve [FILE]`` starts it. One viser server holds the node canvas (the scene)
+and the side panel (Run, edit buttons, and tabs for the inspector, the palette, files, problems,
+the front panel and the device); the 3D toolpath view runs on a second server shown in a docked
+panel (``extensions``).
+
+The editor edits and runs graphs only through the core's public API: ``EditorState`` holds the
+document, ``Runtime`` validates and runs it (one runtime per editor, so re-runs are cached).
+Every change goes through ``Editor.lock``: viser runs callbacks on a thread pool.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import viser
+
+from flowmc.errors import FlowmcError
+from flowmc.graph import load
+from flowmc.nodes import load_all
+from flowmc.runtime import Runtime
+from flowmc.ui import viser_internals
+from flowmc.ui.canvas import Canvas
+from flowmc.ui.extensions import Extensions
+from flowmc.ui.files_panel import FilesPanel
+from flowmc.ui.inspector import Inspector
+from flowmc.ui.panels import PalettePanel, ProblemsPanel
+from flowmc.ui.runner import Runner
+from flowmc.ui.selection_panel import SelectionPanel
+from flowmc.ui.state import EditorState
+
+__all__ = ["Editor", "serve_main"]
+
+NETWORK_WARNING = ("warning: the editor is listening on {host}: anyone who can reach this machine on the network "
+                   "can open it, edit graphs and run the machine (motion, outputs, spindle). Use only on a trusted network.")
+
+
+class Editor:
+    """The whole editor on one viser server. ``run_listeners`` get each RunResult (the 3D view is one)."""
+
+    def __init__(self, path: str | Path | None = None, *, host: str = "127.0.0.1", port: int = 8080,
+                 folder: str | Path | None = None, extensions: bool = True):
+        load_all()
+        self.lock = threading.RLock()
+        self.runtime = Runtime()
+        graph = load(path) if path is not None else None
+        self.state = EditorState(graph, folder=folder, runtime=self.runtime)
+        self.host = host
+        self.messages: list[tuple[str, str]] = []
+        self.run_listeners: list[Callable[[Any], None]] = []
+        self.last_result: Any = None
+        self.pending_modal: Any = None
+        self._titles: dict[int, str] = {}
+        self.server = viser.ViserServer(host=host, port=port, label="flowmc", verbose=False)
+        self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
+        self.server.gui.main_panel.dock_right()
+        self.canvas = Canvas(self.server, self.state, self.notify, self.lock)
+        self._build_gui()
+        self.runner = Runner(self.runtime, self.canvas.status, self.canvas.sync, self._run_finished)
+        self.extensions = Extensions(self) if extensions else None
+        self.state.subscribe(self._on_state)
+        self.server.on_client_connect(self._on_connect)
+        self.canvas.sync()
+        self._refresh_side()
+
+    @property
+    def url(self) -> str:
+        host = "127.0.0.1" if self.host in ("0.0.0.0", "", "::") else self.host
+        return f"http://{host}:{self.server.get_port()}"
+
+    # ------------------------------------------------------------------ layout
+    def _build_gui(self) -> None:
+        gui = self.server.gui
+        self.header = gui.add_markdown("")
+        self.run_button = gui.add_button("Run", color="green", icon=viser.Icon.PLAYER_PLAY, hint="Validate, then run the graph")
+        self.edit_ops = gui.add_button_group("Edit", ("Undo", "Redo", "Fit", "Delete"))
+        self.status_line = gui.add_markdown("")
+        group = gui.add_tab_group()
+        self.tabs = {key: group.add_tab(label) for key, label in
+                     (("node", "Node"), ("add", "Add"), ("files", "Files"), ("problems", "Problems"))}
+        with self.tabs["node"]:
+            self.selection = SelectionPanel(self)
+        self.inspector = Inspector(gui, self.tabs["node"], self.state, self.lock, on_structure=self.canvas.sync)
+        with self.tabs["add"]:
+            self.palette = PalettePanel(self)
+        with self.tabs["files"]:
+            self.files = FilesPanel(self)
+        with self.tabs["problems"]:
+            self.problems = ProblemsPanel(self)
+        self.tab_group = group
+        self.run_button.on_click(lambda _e: self.run())
+        self.edit_ops.on_click(lambda e: self.edit(e.target.value))
+        for label, key, mod, action in (("Undo", "Z", "cmd/ctrl", "Undo"), ("Redo", "Z", "cmd/ctrl+shift", "Redo"),
+                                        ("Delete selection", "delete", None, "Delete"), ("Fit to view", "F", None, "Fit"),
+                                        ("Save", "S", "cmd/ctrl", "Save"), ("Run", "enter", "cmd/ctrl", "Run")):
+            command = gui.add_command(label, hotkey=key, modifier=mod)
+            command.on_trigger(lambda _e, a=action: self.edit(a))
+
+    def _on_connect(self, client: viser.ClientHandle) -> None:
+        self.canvas.setup_client(client)
+        self._titles.pop(client.client_id, None)
+        self._refresh_title([client])
+
+    # ------------------------------------------------------------------ messages and refreshes
+    def notify(self, kind: str, text: str, client: viser.ClientHandle | None = None) -> None:
+        """Tell the user: the line under the Run button, and a notification in the browser."""
+        self.messages.append((kind, text))
+        del self.messages[:-200]
+        self.status_line.content = ("⚠ " if kind == "error" else "") + text
+        title = "Problem" if kind == "error" else "flowmc"
+        for target in [client] if client is not None else list(self.server.get_clients().values()):
+            target.add_notification(title, text, color="red" if kind == "error" else "blue",
+                                    auto_close_seconds=8.0 if kind == "error" else 3.0)
+
+    def _on_state(self, kind: str) -> None:
+        with self.lock:
+            if kind in ("graph", "document"):
+                self.canvas.status.clear()
+            self.canvas.sync()
+            if kind == "move":
+                self._refresh_title()
+                return
+            if kind == "document":
+                self.canvas.fit()
+                self.files.refresh()
+                self.palette.refresh()
+            self.settle()
+        if self.extensions is not None and kind in ("graph", "document"):
+            self.extensions.graph_changed(kind)
+
+    def settle(self) -> None:
+        """Bring the inspector and the side panel up to date with the document."""
+        with self.lock:
+            with self.server.atomic():  # the page applies the side-panel changes in one go
+                if not self.inspector.editing:
+                    self.inspector.show()
+                self._refresh_side()
+
+    def _refresh_side(self) -> None:
+        self.selection.show()
+        self.problems.show(self.state.issues(), self._run_errors())
+        self._refresh_title()
+
+    def _run_errors(self) -> dict[str, str]:
+        result = self.last_result
+        if result is None:
+            return {}
+        ids = {n.id for n in self.state.graph.nodes}
+        return {n: r.error for n, r in result.nodes.items() if r.status == "failed" and n in ids and r.error}
+
+    def _refresh_title(self, clients: list[viser.ClientHandle] | None = None) -> None:
+        state = self.state
+        name = state.path.name if state.path is not None else state.suggested_name + " (not saved)"
+        mark = " ●" if state.dirty else ""
+        opened_from = " ← ".join(reversed(state.parents))
+        self.header.content = f"### {name}{mark}" + (f"\nopened from {opened_from}" if opened_from else "")
+        title = f"{'● ' if mark else ''}{name} — flowmc"
+        for client in clients if clients is not None else list(self.server.get_clients().values()):
+            if self._titles.get(client.client_id) != title:
+                self._titles[client.client_id] = title
+                viser_internals.set_page_title(client, title)
+
+    # ------------------------------------------------------------------ actions
+    def edit(self, action: str) -> None:
+        with self.lock:
+            if action == "Undo" and not self.state.undo():
+                self.notify("info", "nothing to undo")
+            elif action == "Redo" and not self.state.redo():
+                self.notify("info", "nothing to redo")
+            elif action == "Fit":
+                self.canvas.fit()
+            elif action == "Delete" and not self.state.delete_selection():
+                self.notify("info", "nothing selected to delete")
+            elif action == "Save":
+                self.files.save()
+            elif action == "Run":
+                self.run()
+
+    def select_node(self, node_id: str) -> None:
+        with self.lock:
+            if self.state.has_node(node_id):
+                self.state.select(nodes=[node_id])
+
+    def run(self, inputs: dict[str, Any] | None = None) -> threading.Thread | None:
+        """Validate; when the graph can run, run it in a worker thread (returned) and colour the nodes
+        from its events. ``inputs``: interface input values (default: the front panel's)."""
+        with self.lock:
+            if self.runner.running:
+                self.notify("info", "a run is already going")
+                return None
+            plan = self.state.plan()
+            if plan.issues:
+                self.problems.show(plan.issues, {})
+                first = plan.issues[0].message
+                more = f" (and {len(plan.issues) - 1} more: see Problems)" if len(plan.issues) > 1 else ""
+                self.notify("error", f"cannot run yet: {first}{more}")
+                return None
+            if inputs is None and self.extensions is not None:
+                inputs = self.extensions.inputs()
+            self.run_button.disabled = True
+            self.status_line.content = "running…"
+            self._run_started = time.perf_counter()
+            return self.runner.start(plan, inputs)
+
+    def wait(self, timeout: float = 60.0) -> Any:
+        """Wait for the current run (tests, scripts); returns the last result."""
+        thread = self.runner.thread
+        if thread is not None:
+            thread.join(timeout)
+        return self.last_result
+
+    def _run_finished(self, result: Any, error: str | None) -> None:
+        with self.lock:
+            self.run_button.disabled = False
+            if error is not None:
+                self.notify("error", f"the run did not start: {error}")
+                return
+            self.last_result = result
+            errors = self._run_errors()
+            self.problems.show(self.state.issues(), errors)
+            seconds = time.perf_counter() - self._run_started
+            if result.ok:
+                self.notify("info", f"run done in {seconds:.2f} s: {len(result.executed)} ran, {len(result.cached)} cached")
+            else:
+                first = next(iter(errors.values()), "a node failed")
+                self.notify("error", f"run failed: {first}" + (f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""))
+        for listener in list(self.run_listeners):
+            try:
+                listener(result)
+            except Exception as exc:  # a view that cannot show a result must not break the editor
+                self.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
+
+    def export_gcode(self, client: viser.ClientHandle | None = None) -> Path | None:
+        """Run the graph (cached) and write its Path output as ``<graph>.ngc`` in the folder, and offer it
+        as a download. The path: the graph's Path interface output, else the selected node's, else the last."""
+        from flowmc.ui.gcode_export import export_gcode
+
+        try:
+            with self.lock:
+                target, text = export_gcode(self.state, self.runtime)
+        except FlowmcError as exc:
+            self.notify("error", f"G-code export: {exc}", client)
+            return None
+        for c in [client] if client is not None else list(self.server.get_clients().values()):
+            c.send_file_download(target.name, text.encode("utf-8"))
+        self.notify("info", f"wrote {target.name}", client)
+        return target
+
+    def close(self) -> None:
+        """Stop the run thread, the extensions and the server (safe to call twice)."""
+        self.runner.close()
+        if self.extensions is not None:
+            self.extensions.close()
+        self.server.stop()
+
+
+def serve_main(args: Any) -> int:
+    """``flowmc serve [FILE] [--host] [--port]``: start the editor, print its URL, serve until Ctrl+C."""
+    host, port = getattr(args, "host", "127.0.0.1"), getattr(args, "port", 8080)
+    file = getattr(args, "file", None)
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(NETWORK_WARNING.format(host=host), file=sys.stderr)
+    editor = Editor(file, host=host, port=port, folder=None if file else Path.cwd())
+    print(f"flowmc editor: {editor.url}" + (f"  ({file})" if file else ""), flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        editor.close()
+    return 0

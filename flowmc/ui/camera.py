@@ -1,0 +1,58 @@
+"""The canvas camera: it looks straight down -z (the scene's up is +y) with a narrow field of view,
+so the perspective view reads as a flat sheet; ``viser_internals`` keeps it from turning."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Callable
+
+import viser
+
+from flowmc.ui import viser_internals
+
+__all__ = ["FOV", "setup", "frame", "screen_rect_to_world"]
+
+FOV = math.radians(12.0)
+SETTLE_S = 5.0  # the page lays out its panels after it connects: frame again while its size settles
+
+
+def setup(client: viser.ClientHandle, frame_again: Callable[[], None]) -> None:
+    """Top-down, locked camera for ``client``; ``frame_again()`` runs now and whenever the view's size
+    changes during the first seconds."""
+    client.camera.fov = FOV
+    client.camera.near, client.camera.far = 0.5, 20000.0
+    frame_again()
+    viser_internals.lock_flat_camera(client)
+    size = [client.camera.image_width, client.camera.image_height]
+    deadline = time.monotonic() + SETTLE_S
+
+    def refit(camera: viser.CameraHandle) -> None:
+        if time.monotonic() <= deadline and [camera.image_width, camera.image_height] != size:
+            size[:] = [camera.image_width, camera.image_height]
+            frame_again()
+
+    client.camera.on_update(refit)
+
+
+def frame(client: viser.ClientHandle, box: tuple[float, float, float, float], margin: float = 0.4) -> None:
+    """Look straight down on the world rectangle ``box`` (xmin, ymin, xmax, ymax), all of it in view."""
+    cam = client.camera
+    w, h = box[2] - box[0] + 2 * margin, box[3] - box[1] + 2 * margin
+    width_px, height_px = max(cam.image_width, 200), max(cam.image_height, 200)
+    per_px = max(w / width_px, h / height_px)  # world units per pixel
+    dist = max(per_px * height_px / (2 * math.tan(cam.fov / 2)), 2.0)
+    cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
+    with client.atomic():
+        cam.position = (cx, cy, dist)
+        cam.look_at = (cx, cy, 0.0)
+
+
+def screen_rect_to_world(cam: viser.CameraHandle, screen_min: tuple[float, float],
+                         screen_max: tuple[float, float]) -> tuple[float, float, float, float]:
+    """A rectangle in view coordinates (0..1, y down) as (xmin, ymin, xmax, ymax) on the plane z = 0."""
+    half_h = cam.position[2] * math.tan(cam.fov / 2)
+    half_w = half_h * cam.aspect
+    (u0, v0), (u1, v1) = screen_min, screen_max
+    return (cam.position[0] + (2 * u0 - 1) * half_w, cam.position[1] - (2 * v1 - 1) * half_h,
+            cam.position[0] + (2 * u1 - 1) * half_w, cam.position[1] - (2 * v0 - 1) * half_h)

@@ -1,0 +1,152 @@
+"""The Files tab: open, save, save as, upload, download, new, and export G-code.
+
+Files are read and written only inside the editor's folder (the folder of the graph it was started
+on): names typed here are resolved with the core's ``resolve_inside``. Saving is flowmc's atomic
+canonical save. Opening another file over unsaved changes asks first.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from flowmc.errors import FlowmcError, GraphError
+from flowmc.graph import Graph, dumps
+from flowmc.runtime import resolve_inside
+
+if TYPE_CHECKING:
+    from flowmc.ui.app import Editor
+
+__all__ = ["FilesPanel", "graph_files"]
+
+SUFFIX = ".flowmc.json"
+
+
+def graph_files(folder: Path) -> list[str]:
+    """Graph files under ``folder`` (two levels deep), as relative paths, sorted."""
+    found = list(folder.glob(f"*{SUFFIX}")) + list(folder.glob(f"*/*{SUFFIX}"))
+    return sorted(p.relative_to(folder).as_posix() for p in found if not p.name.startswith("."))
+
+
+class FilesPanel:
+    def __init__(self, editor: "Editor"):
+        self.editor = editor
+        gui = editor.server.gui
+        self.where = gui.add_markdown("")
+        self.open_choice = gui.add_dropdown("File", ("(none)",))
+        self.open_button = gui.add_button("Open", hint="Open the chosen graph file")
+        self.save_button = gui.add_button("Save", hint="Save to the open file (Ctrl+S)")
+        self.save_as_name = gui.add_text("Save as", "", hint="File name, relative to the folder")
+        self.save_as_button = gui.add_button("Save as…")
+        self.new_button = gui.add_button("New graph")
+        self.upload_button = gui.add_upload_button("Upload a graph", mime_type=".json,application/json")
+        self.download_button = gui.add_button("Download the graph")
+        self.gcode_button = gui.add_button("Export G-code", hint="Run the graph and write its Path output as G-code")
+        self.open_button.on_click(lambda e: self.open(self.open_choice.value, client=e.client))
+        self.save_button.on_click(lambda e: self.save())
+        self.save_as_button.on_click(lambda e: self.save_as(self.save_as_name.value))
+        self.new_button.on_click(lambda e: self.confirm_discard(self._new, e.client))
+        self.upload_button.on_upload(lambda e: self.upload(e.target.value.name, e.target.value.content, e.client))
+        self.download_button.on_click(lambda e: self.download(e.client))
+        self.gcode_button.on_click(lambda e: self.editor.export_gcode(e.client))
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Re-list the folder's graph files and show where the editor reads and writes."""
+        state = self.editor.state
+        files = graph_files(state.folder) or ["(none)"]
+        self.open_choice.options = tuple(files)
+        current = state.path.resolve().relative_to(state.folder).as_posix() if state.path is not None and \
+            state.path.resolve().is_relative_to(state.folder) else None
+        if current in files:
+            self.open_choice.value = current
+        self.save_as_name.value = current or state.suggested_name
+        self.where.content = f"Folder: `{state.folder}`"
+
+    def _inside(self, name: str) -> Path:
+        name = name.strip()
+        if name and not name.endswith(SUFFIX):
+            name += SUFFIX
+        return resolve_inside(self.editor.state.folder, self.editor.state.folder, name, where="file name")
+
+    def open(self, name: str, client: Any = None, confirmed: bool = False) -> bool:
+        if not confirmed:
+            return self.confirm_discard(lambda: self.open(name, client, confirmed=True), client)
+        try:
+            self.editor.state.load(self._inside(name))
+        except GraphError as exc:
+            self.editor.notify("error", str(exc))
+            return False
+        self.editor.notify("info", f"opened {name}")
+        return True
+
+    def _new(self) -> None:
+        self.editor.state.load_text(dumps(Graph()), "untitled.flowmc.json")
+
+    def save(self) -> bool:
+        state = self.editor.state
+        if state.path is None:
+            return self.save_as(self.save_as_name.value)
+        try:
+            target = state.save()
+        except FlowmcError as exc:
+            self.editor.notify("error", str(exc))
+            return False
+        self.editor.notify("info", f"saved {target.name}")
+        return True
+
+    def save_as(self, name: str) -> bool:
+        try:
+            target = self.editor.state.save(self._inside(name))
+        except FlowmcError as exc:
+            self.editor.notify("error", str(exc))
+            return False
+        self.refresh()
+        self.editor.notify("info", f"saved {target.name}")
+        return True
+
+    def upload(self, name: str, content: bytes, client: Any = None) -> bool:
+        try:
+            text = content.decode("utf-8")
+        except UnicodeDecodeError:
+            self.editor.notify("error", f"{name}: not a text file")
+            return False
+
+        def load() -> None:
+            try:
+                self.editor.state.load_text(text, name)
+            except GraphError as exc:
+                detail = "; ".join(i.message for i in exc.issues[:3]) if exc.issues else ""
+                self.editor.notify("error", f"{exc}" + (f" ({detail})" if detail and detail not in str(exc) else ""))
+                return
+            self.save_as_name.value = self.editor.state.suggested_name
+            self.editor.notify("info", f"uploaded {name}: not saved yet (Save as to keep it)")
+
+        return self.confirm_discard(load, client)
+
+    def download(self, client: Any = None) -> None:
+        state = self.editor.state
+        name = state.path.name if state.path is not None else state.suggested_name
+        for target in [client] if client is not None else self.editor.server.get_clients().values():
+            target.send_file_download(name, dumps(state.graph).encode("utf-8"))
+
+    def confirm_discard(self, action: Any, client: Any = None) -> bool:
+        """Do ``action`` now, or after the user agrees to lose unsaved changes (a dialog in the browser)."""
+        if not self.editor.state.dirty:
+            action()
+            return True
+        gui = client.gui if client is not None else self.editor.server.gui
+        with gui.add_modal("Unsaved changes") as modal:
+            gui.add_markdown("The open graph has unsaved changes. Discard them?")
+            discard = gui.add_button("Discard changes", color="red")
+            keep = gui.add_button("Keep editing")
+        self.editor.pending_modal = (modal, discard)
+
+        def go(_e: Any) -> None:
+            modal.close()
+            with self.editor.lock:
+                action()
+
+        discard.on_click(go)
+        keep.on_click(lambda _e: modal.close())
+        return False

@@ -1,0 +1,89 @@
+"""The node palette: every registered node type, every library graph and the graph files with an
+interface beside the open graph, searchable by id, title, category and description."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from flowmc import registry
+from flowmc.errors import GraphError
+from flowmc.graph import load
+from flowmc.nodes import load_all
+
+__all__ = ["PaletteItem", "palette_items", "search"]
+
+SUFFIX = ".flowmc.json"
+
+
+@dataclass(frozen=True)
+class PaletteItem:
+    """What adding this entry creates: a node of ``type_id`` with ``params``."""
+
+    type_id: str
+    title: str
+    category: str
+    description: str
+    params: dict[str, Any] = field(default_factory=dict, hash=False, compare=False)
+
+    @property
+    def key(self) -> str:
+        """Unique per entry (graph files share the type ``subgraph``)."""
+        file = self.params.get("file")
+        return f"{self.type_id}:{file}" if file else self.type_id
+
+    @property
+    def haystack(self) -> str:
+        return " ".join((self.type_id, self.title, self.category, self.description, str(self.params.get("file", "")))).lower()
+
+
+def _graph_files(folder: Path, exclude: Path | None) -> list[PaletteItem]:
+    """Graph files in ``folder`` that declare an interface, usable as ``subgraph`` nodes."""
+    items = []
+    for path in sorted(folder.glob(f"*{SUFFIX}")):
+        if exclude is not None and path.resolve() == exclude.resolve():
+            continue
+        try:
+            graph = load(path)
+        except GraphError:
+            continue
+        if graph.interface is None:
+            continue
+        description = (graph.description.strip().splitlines() or [f"Sub-graph file {path.name}"])[0]
+        items.append(PaletteItem("subgraph", graph.title or path.name[: -len(SUFFIX)], "Graph files", description,
+                                 {"file": path.name}))
+    return items
+
+
+def palette_items(graph_dir: Any = None, exclude: Path | None = None) -> list[PaletteItem]:
+    """Every node type (``describe_all``: registered types, then ``lib.*`` graphs) and the graph files
+    beside the open graph (``exclude``: the open graph itself)."""
+    load_all()
+    items = [PaletteItem(d["type_id"], d["title"], d["category"], d["description"])
+             for d in registry.describe_all(graph_dir)]
+    if graph_dir is not None and Path(graph_dir).is_dir():
+        items += _graph_files(Path(graph_dir), exclude)
+    return items
+
+
+def _score(item: PaletteItem, query: str) -> int:
+    title, type_id = item.title.lower(), item.type_id.lower()
+    if query in (title, type_id, type_id.rsplit(".", 1)[-1]):
+        return 0
+    if title.startswith(query) or type_id.startswith(query) or type_id.rsplit(".", 1)[-1].startswith(query):
+        return 1
+    if query in title or query in type_id:
+        return 2
+    return 3
+
+
+def search(items: list[PaletteItem], query: str, limit: int | None = None) -> list[PaletteItem]:
+    """Entries whose text holds every word of ``query`` (case-insensitive), best matches first:
+    exact title or id, then prefixes, then title/id containing it, then description matches.
+    An empty query lists everything by category and title."""
+    query = " ".join(query.lower().split())
+    words = query.split()
+    found = [item for item in items if all(w in item.haystack for w in words)]
+    found.sort(key=lambda i: (_score(i, query) if query else 0, i.category, i.title.lower(), i.key))
+    return found if limit is None else found[:limit]

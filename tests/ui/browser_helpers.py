@@ -1,0 +1,134 @@
+"""Driving the editor page in Debian's chromium with playwright (shared by the browser tests and
+benchmarks/editor.py). Scene facts come from ``window.__viserMutable``, which viser keeps in its
+production build for its own browser tests: ``nodeRefFromName`` (three.js objects by scene name),
+``camera`` and ``canvas`` (to turn world points into page pixels). Batched meshes are three.ez
+``InstancedMesh2``: ``instancesCount`` is how many there are (``count`` is how many are on screen)."""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import time
+from typing import Any, Iterator
+
+import numpy as np
+from playwright.sync_api import Browser, Page, sync_playwright
+
+from flowmc.ui import canvas_draw
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+VIEWPORT = {"width": 1600, "height": 1000}
+
+
+@contextlib.contextmanager
+def chromium() -> Iterator[Browser]:
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        try:
+            yield browser
+        finally:
+            browser.close()
+
+
+_INSTANCES = """(name) => { const o = window.__viserMutable?.nodeRefFromName?.[name]; if (!o) return -1;
+  let m = null; o.traverse(c => { if (c.isInstancedMesh && !m) m = c; }); return m ? (m.instancesCount ?? m.count) : -1; }"""
+
+_COLORS = """(name) => { const o = window.__viserMutable.nodeRefFromName[name]; let m = null;
+  o.traverse(c => { if (c.isInstancedMesh && !m) m = c; }); const C = m.material.color.constructor; const out = [];
+  for (let i = 0; i < (m.instancesCount ?? m.count); i++) { const c = new C(); m.getColorAt(i, c); out.push([c.r, c.g, c.b]); } return out; }"""
+
+_POSITIONS = """(name) => { const o = window.__viserMutable.nodeRefFromName[name]; let m = null;
+  o.traverse(c => { if (c.isInstancedMesh && !m) m = c; }); const M = m.matrix.constructor; const out = [];
+  for (let i = 0; i < (m.instancesCount ?? m.count); i++) { const t = new M(); m.getMatrixAt(i, t); out.push([t.elements[12], t.elements[13]]); }
+  return out; }"""
+
+_PROJECT = """([x, y]) => { const m = window.__viserMutable; const o = m.nodeRefFromName['/canvas/body'];
+  const V = m.camera.position.constructor; const v = new V(x, y, 0); o.parent.localToWorld(v); v.project(m.camera);
+  const r = m.canvas.getBoundingClientRect(); return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height]; }"""
+
+
+class EditorPage:
+    """One browser tab on an Editor running in this process."""
+
+    def __init__(self, browser: Browser, editor: Any):
+        self.editor = editor
+        self.page: Page = browser.new_page(viewport=VIEWPORT)
+
+    def open(self, timeout: float = 30.0) -> float:
+        """Load the page; returns seconds until every node is in the scene and the camera is locked."""
+        start = time.perf_counter()
+        self.page.goto(self.editor.url)
+        self.wait_nodes(len(self.editor.state.graph.nodes), timeout)
+        self.page.wait_for_function("window.__flowmcCameraLocked === true", timeout=timeout * 1000)
+        return time.perf_counter() - start
+
+    def wait_nodes(self, count: int, timeout: float = 30.0) -> None:
+        self.page.wait_for_function(f"({_INSTANCES})('/canvas/body') === {count}", timeout=timeout * 1000)
+
+    def dismiss_toasts(self) -> None:
+        """Close the 'Software WebGL' notice (it covers the top left of the canvas)."""
+        for frame in self.page.frames:
+            toast = frame.locator(".mantine-Notification-root", has_text="Software WebGL")
+            for k in range(toast.count()):
+                with contextlib.suppress(Exception):
+                    toast.nth(k).locator("button").first.click(timeout=2000)
+
+    def field(self, label: str) -> Any:
+        """The input beside a side-panel label (viser puts them in one row; its label's ``for`` misses)."""
+        target = self.page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first
+        target.wait_for(timeout=10000)
+        row = target.locator("xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]")
+        return row.locator("input, textarea").first
+
+    def settle(self, frames: int = 2) -> None:
+        self.page.evaluate(f"() => new Promise(r => {{ let n = {frames}; const f = () => --n ? requestAnimationFrame(f) : r(); requestAnimationFrame(f); }})")
+
+    def body_colors(self) -> np.ndarray:
+        """Each node body's colour as the scene holds it (0..1, linear, in graph order)."""
+        return np.asarray(self.page.evaluate(_COLORS, "/canvas/body"))
+
+    def body_positions(self) -> np.ndarray:
+        """Each node body's top-left corner (world x, y) as the scene holds it."""
+        return np.asarray(self.page.evaluate(_POSITIONS, "/canvas/body"))
+
+    def frame_colors(self) -> np.ndarray:
+        return np.asarray(self.page.evaluate(_COLORS, "/canvas/frame"))
+
+    def screen(self, x: float, y: float) -> tuple[float, float]:
+        sx, sy = self.page.evaluate(_PROJECT, [float(x), float(y)])
+        return sx, sy
+
+    def box(self, node_id: str) -> Any:
+        return next(b for b in self.editor.canvas.boxes if b.node_id == node_id)
+
+    def click_world(self, x: float, y: float) -> None:
+        self.page.mouse.click(*self.screen(x, y))
+
+    def click_node(self, node_id: str) -> None:
+        box = self.box(node_id)
+        self.click_world(box.x + box.w * 0.6, box.y - box.h * 0.6)
+
+    def click_port(self, node_id: str, kind: str, port: str) -> None:
+        spot = self.box(node_id).port(kind, port)
+        self.click_world(spot.x, spot.y)
+
+    def wire(self, src: str, dst: str) -> None:
+        (sn, sp), (dn, dp) = src.split("."), dst.split(".")
+        self.click_port(sn, "out", sp)
+        self.click_port(dn, "in", dp)
+
+
+def expected(color: tuple[int, int, int]) -> np.ndarray:
+    """What the scene holds for a colour the canvas asked for (it sends linear values)."""
+    return canvas_draw.mesh_rgb(color) / 255.0
+
+
+def wait_until(check: Any, timeout: float = 20.0, what: str = "condition") -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if check():
+            return
+        time.sleep(0.03)
+    raise AssertionError(f"timed out waiting for {what}")

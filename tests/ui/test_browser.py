@@ -1,0 +1,171 @@
+"""End to end in a real browser (Debian's chromium driven by playwright): the editor page on an
+example graph, used the way a person would: palette, wiring clicks, Run, Save, reload."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from browser_helpers import EditorPage, chromium, expected, wait_until
+from editor_graphs import example_file
+
+import flowmc
+from flowmc.ui import canvas_draw
+from flowmc.ui.app import Editor
+
+DONE = expected(canvas_draw.STATUS_COLORS["done"])
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with chromium() as b:
+        yield b
+
+
+@pytest.fixture
+def editor(tmp_path):
+    ed = Editor(example_file(tmp_path), port=0)
+    yield ed
+    ed.close()
+
+
+def add_from_palette(ui: EditorPage, query: str, button: str) -> str:
+    page, before = ui.page, len(ui.editor.state.graph.nodes)
+    ui.field("Search").fill(query)
+    page.get_by_role("button", name=button, exact=True).click()
+    ui.wait_nodes(before + 1)
+    return ui.editor.state.graph.nodes[-1].id
+
+
+def not_blank(image: np.ndarray) -> float:
+    """Share of pixels that differ clearly from the background (the most common colour)."""
+    rgb = np.asarray(image)[..., :3].astype(int)
+    colours, counts = np.unique(rgb.reshape(-1, 3), axis=0, return_counts=True)
+    background = colours[np.argmax(counts)]
+    return float(np.mean(np.abs(rgb - background).max(axis=-1) > 40))
+
+
+def test_palette_wire_run_3d_view_save_and_reload(browser, editor, tmp_path):
+    ui = EditorPage(browser, editor)
+    ui.open()
+    ui.dismiss_toasts()
+    page = ui.page
+    page.get_by_role("tab", name="Add").click()
+    shift2 = add_from_palette(ui, "translate", "Translate · Path")
+    line = add_from_palette(ui, "polyline", "Polyline · Path")
+    join = add_from_palette(ui, "join", "Join · Path")
+    assert [editor.state.node(n).type for n in (shift2, line, join)] == ["path.translate", "path.polyline", "path.join"]
+    page.get_by_role("button", name="Fit", exact=True).click()
+    page.wait_for_timeout(400)
+
+    for src, dst in ((f"{line}.path", f"{shift2}.path"), (f"{shift2}.path", f"{join}.path1"), ("both.path", f"{join}.path2")):
+        ui.wire(src, dst)
+        wait_until(lambda: (src, dst) in {(w.from_, w.to) for w in editor.state.graph.wires}, what=f"wire {src} -> {dst}")
+
+    before = len(editor.state.graph.wires)
+    ui.wire(f"{line}.path", f"{shift2}.dx")  # a Path into a Number param: refused
+    page.get_by_text(re.compile(r"is a Path, but input 'dx'.*takes Number")).first.wait_for(timeout=10000)
+    assert len(editor.state.graph.wires) == before
+
+    page.get_by_role("button", name="Run", exact=True).click()
+    page.wait_for_function(
+        f"""() => {{ const o = window.__viserMutable.nodeRefFromName['/canvas/body']; let m = null;
+        o.traverse(c => {{ if (c.isInstancedMesh && !m) m = c; }}); const C = m.material.color.constructor;
+        for (let i = 0; i < m.instancesCount; i++) {{ const c = new C(); m.getColorAt(i, c);
+          if (Math.abs(c.r - {DONE[0]}) > 0.01 || Math.abs(c.g - {DONE[1]}) > 0.01) return false; }} return m.instancesCount === 7; }}""",
+        timeout=30000)
+    assert np.allclose(ui.body_colors(), DONE, atol=0.01)
+    assert editor.last_result.ok and set(editor.last_result.nodes) == {n.id for n in editor.state.graph.nodes}
+
+    view = editor.extensions.view  # the 3D view: a second viser server, shown in the page's docked panel
+    wait_until(lambda: view.server.get_clients() and "/path/0" in view.nodes, what="the 3D view to show the path")
+    page.wait_for_timeout(800)
+    client = next(iter(view.server.get_clients().values()))
+    render = client.get_render(height=360, width=480)
+    shown = not_blank(render)
+    assert shown > 0.002, f"the 3D view render is blank ({shown:.4%} coloured pixels)"
+    canvas = next(iter(editor.server.get_clients().values())).get_render(height=400, width=600)
+    assert not_blank(canvas) > 0.002
+
+    page.get_by_role("tab", name="Files").click()
+    page.get_by_role("button", name="Save", exact=True).click()
+    wait_until(lambda: not editor.state.dirty, what="the save")
+    saved = flowmc.load(tmp_path / "example.flowmc.json")
+    assert flowmc.dumps(saved) == flowmc.dumps(editor.state.graph)
+    positions = ui.body_positions()
+
+    page.reload()
+    ui.wait_nodes(7)
+    assert np.allclose(ui.body_positions(), positions, atol=1e-4)
+    on_file = [saved.node(n.id).pos for n in editor.state.graph.nodes]
+    assert np.allclose(ui.body_positions(), [(x * 0.01, -y * 0.01) for x, y in on_file], atol=1e-4)
+    again = Editor(tmp_path / "example.flowmc.json", port=0, extensions=False)
+    try:
+        assert flowmc.dumps(again.state.graph) == flowmc.dumps(editor.state.graph)
+    finally:
+        again.close()
+    page.close()
+
+
+def test_click_selects_drag_moves_and_the_camera_stays_flat(browser, editor):
+    ui = EditorPage(browser, editor)
+    ui.open()
+    ui.dismiss_toasts()
+    page = ui.page
+    ui.click_node("shift")
+    wait_until(lambda: editor.state.selected_nodes == ["shift"], what="selection")
+    index = [n.id for n in editor.state.graph.nodes].index("shift")
+    page.wait_for_function(f"""() => {{ const o = window.__viserMutable.nodeRefFromName['/canvas/frame']; let m = null;
+        o.traverse(c => {{ if (c.isInstancedMesh && !m) m = c; }}); const c = new (m.material.color.constructor)();
+        m.getColorAt({index}, c); return Math.abs(c.r - {expected(canvas_draw.FRAME_SELECTED)[0]}) < 0.01; }}""", timeout=10000)
+    page.get_by_text("path.translate").first.wait_for(timeout=10000)  # the inspector shows the node
+    ui.field("dx (mm)").wait_for(timeout=10000)  # and its params, with units
+
+    page.keyboard.down("Shift")
+    ui.click_node("edge")  # shift-click adds to the selection
+    page.keyboard.up("Shift")
+    wait_until(lambda: editor.state.selected_nodes == ["shift", "edge"], what="shift-click")
+    editor.state.clear_selection()
+    a, b = ui.box("table"), ui.box("shift")
+    (x0, y0), (x1, y1) = ui.screen(a.x - 0.3, a.y + 0.3), ui.screen(b.x + b.w + 0.3, b.y - b.h - 0.3)
+    left = page.evaluate("() => window.__viserMutable.canvas.getBoundingClientRect().left")
+    x0 = max(x0, left + 25)  # not on the docked panel's edge
+    page.keyboard.down("Shift")  # shift-drag on the background selects the nodes in the box
+    page.mouse.move(x0, y0)
+    page.mouse.down()
+    for k in range(1, 9):
+        page.mouse.move(x0 + (x1 - x0) * k / 8, y0 + (y1 - y0) * k / 8)
+        page.wait_for_timeout(30)
+    page.mouse.up()
+    page.keyboard.up("Shift")
+    wait_until(lambda: sorted(editor.state.selected_nodes) == ["shift", "table"], what="box selection")
+    editor.state.clear_selection()
+
+    box = ui.box("shift")
+    x0, y0 = ui.screen(box.x + box.w / 2, box.y - box.h / 2)
+    old = editor.state.node("shift").pos
+    page.mouse.move(x0, y0)
+    page.mouse.down()
+    for k in range(1, 9):
+        page.mouse.move(x0 + 12 * k, y0 + 6 * k)
+        page.wait_for_timeout(40)
+    page.mouse.up()
+    wait_until(lambda: editor.state.node("shift").pos[0] > old[0] + 20, what="the drag to move the node")
+    assert editor.state.node("shift").pos[1] > old[1]  # dragged down the screen: y grows down on the canvas
+
+    cam = "() => [window.__viserMutable.cameraControl.polarAngle, window.__viserMutable.cameraControl.azimuthAngle, window.__viserMutable.camera.position.toArray()]"
+    polar, azimuth, before = page.evaluate(cam)
+    page.mouse.move(700, 900)
+    page.mouse.down()
+    for k in range(1, 8):
+        page.mouse.move(700 + 20 * k, 900 - 10 * k)
+        page.wait_for_timeout(40)
+    page.mouse.up()
+    page.mouse.wheel(0, 300)
+    page.wait_for_timeout(600)
+    polar2, azimuth2, after = page.evaluate(cam)
+    assert polar2 == pytest.approx(polar, abs=1e-6)  # panned and zoomed, never tilted or turned
+    assert (np.cos(azimuth2), np.sin(azimuth2)) == pytest.approx((np.cos(azimuth), np.sin(azimuth)), abs=1e-6)
+    assert not np.allclose(before, after)
+    page.close()

@@ -1,0 +1,320 @@
+"""The real Editor on an ephemeral port, driven in-process through the same GUI handles the page uses
+(setting a handle's value fires its callbacks, as a browser event does)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+from editor_graphs import example_file
+
+import flowmc
+from flowmc.ui import layout
+from flowmc.ui.app import Editor
+
+
+@pytest.fixture
+def editor(tmp_path):
+    ed = Editor(example_file(tmp_path), port=0, extensions=False)
+    yield ed
+    ed.close()
+
+
+def click(editor, node_id, kind=None, port=None):
+    """Click the middle of a node, or one of its ports, the way a click ray would land."""
+    box = next(b for b in editor.canvas.boxes if b.node_id == node_id)
+    spot = box.port(kind, port) if kind is not None else None
+    got = editor.canvas.click(*box.centre) if spot is None else editor.canvas.click(spot.x, spot.y)
+    return got
+
+
+def run(editor):
+    editor.run_button.value = True
+    result = editor.wait()
+    assert not editor.runner.running
+    return result
+
+
+def test_opens_the_graph_and_runs_it_with_status_colours(editor):
+    assert "example.flowmc.json" in editor.header.content and "●" not in editor.header.content
+    assert len(editor.canvas.boxes) == 4 and len(editor.canvas.curves) == 3
+    result = run(editor)
+    assert result.ok
+    assert {n: s[0] for n, s in editor.canvas.status.items()} == dict.fromkeys(["table", "edge", "shift", "both"], "done")
+    body = editor.canvas._handles["body"].batched_colors
+    assert len({tuple(c) for c in body}) == 1  # every node the 'done' colour
+    assert run(editor).cached == result.order  # the same runtime: everything cached
+    assert {s[0] for s in editor.canvas.status.values()} == {"cached"}
+    assert "cached" in editor.messages[-1][1]
+
+
+def test_palette_adds_nodes_that_wire_and_run(editor):
+    editor.palette.search.value = "translate"
+    assert next(iter(editor.palette.buttons)) == "path.translate"
+    editor.palette.buttons["path.translate"].value = True
+    new = editor.state.selected_nodes[0]
+    assert editor.state.node(new).type == "path.translate"
+    assert editor.inspector.node_id == new and ("dx",) in editor.inspector.fields
+    assert click(editor, "both", "out", "path").kind == "port"
+    assert editor.canvas.pending is not None
+    click(editor, new, "in", "path")
+    assert ("both.path", f"{new}.path") in {(w.from_, w.to) for w in editor.state.graph.wires}
+    assert run(editor).nodes[new].status == "done"
+
+
+def test_incompatible_wire_is_refused_with_a_message(editor):
+    editor.palette.search.value = "add"
+    editor.palette.buttons["basic.add"].value = True
+    adder = editor.state.selected_nodes[0]
+    before = len(editor.state.graph.wires)
+    click(editor, "shift", "out", "path")
+    click(editor, adder, "in", "a")
+    assert len(editor.state.graph.wires) == before
+    kind, text = editor.messages[-1]
+    assert kind == "error" and "Path" in text and "Number" in text
+    click(editor, "table", "out", "path")
+    click(editor, "edge", "out", "path")
+    assert "both outputs" in editor.messages[-1][1]
+
+
+def test_invalid_param_shows_at_the_field_and_stops_the_run(editor):
+    click(editor, "table")
+    assert editor.state.selected_nodes == ["table"]
+    editor.inspector.fields[("feed",)].value = -4.0
+    assert editor.inspector.errors[("feed",)].visible
+    assert "greater than 0" in editor.inspector.errors[("feed",)].content
+    assert editor.run() is None
+    assert editor.messages[-1][0] == "error" and "feed" in editor.messages[-1][1]
+    assert "1 problem" in editor.problems.summary.content
+    click(editor, "edge")
+    editor.problems.buttons[0].value = True  # the problem's button selects its node
+    assert editor.state.selected_nodes == ["table"]
+    editor.inspector.fields[("feed",)].value = 20.0
+    assert not editor.inspector.errors[("feed",)].visible
+    assert run(editor).ok
+
+
+def test_segment_table_rows_are_an_editable_table(editor):
+    click(editor, "table")
+    fields = editor.inspector.fields
+    fields[("rows", 1, "radius")].value = -2.0
+    assert editor.inspector.errors[("rows", 1, "radius")].visible
+    fields[("rows", 1, "radius")].value = 12.0
+    fields[("rows", "add")].value = "line"
+    rows = editor.state.node("table").params["rows"]
+    assert len(rows) == 5 and rows[-1]["type"] == "line"
+    editor.inspector.fields[("rows", 4, "end")].value = (5.0, 6.0, 0.0)
+    assert editor.state.node("table").params["rows"][4]["end"] == [5.0, 6.0, 0.0]
+    editor.inspector.fields[("rows", 4, "ops")].value = "Remove"
+    assert len(editor.state.node("table").params["rows"]) == 4
+    assert editor.state.node("table").params["rows"][1]["radius"] == 12.0
+
+
+def test_points_and_optional_numbers_are_text_fields(editor):
+    click(editor, "edge")
+    editor.inspector.fields[("points",)].value = "0, 0, 0\n10, 5, 0\n20, 0, 0"
+    assert editor.state.node("edge").params["points"] == [[0, 0, 0], [10, 5, 0], [20, 0, 0]]
+    editor.inspector.fields[("points",)].value = "0, 0, 0\n10, x, 0"
+    assert "line 2" in editor.inspector.errors[("points",)].content
+    assert len(editor.state.node("edge").params["points"]) == 3  # not stored: it did not parse
+    click(editor, "both")
+    editor.inspector.fields[("rapid_feed",)].value = "25"
+    assert editor.state.node("both").params["rapid_feed"] == 25
+    editor.inspector.fields[("rapid_feed",)].value = ""
+    assert editor.state.node("both").params["rapid_feed"] is None
+
+
+def test_select_delete_undo_redo_and_fit(editor):
+    wire = ("edge.path", "both.path2")
+    curve = editor.canvas.curves[wire]
+    mid = curve[len(curve) // 2]
+    assert editor.canvas.click(mid[0], mid[1]).wire == wire
+    assert editor.state.selected_wires == [wire]
+    editor.edit_ops.value = "Delete"
+    assert wire not in {(w.from_, w.to) for w in editor.state.graph.wires}
+    click(editor, "edge")
+    editor.canvas.click(*next(b for b in editor.canvas.boxes if b.node_id == "table").centre, toggle=True)
+    assert editor.state.selected_nodes == ["edge", "table"]
+    assert "2 nodes" in editor.selection.summary.content
+    editor.selection.delete_button.value = True
+    assert not editor.state.has_node("edge") and "●" in editor.header.content
+    editor.edit_ops.value = "Undo"
+    editor.edit_ops.value = "Undo"
+    assert editor.state.has_node("edge") and wire in {(w.from_, w.to) for w in editor.state.graph.wires}
+    editor.edit_ops.value = "Redo"
+    assert wire not in {(w.from_, w.to) for w in editor.state.graph.wires}
+    editor.canvas.click(-50.0, 50.0)
+    assert editor.state.selected_nodes == []
+    editor.edit_ops.value = "Fit"  # no clients: nothing to move, and no error
+    assert editor.messages == [] or editor.messages[-1][0] != "error"
+
+
+def test_files_save_save_as_open_upload_download_and_gcode(editor, tmp_path):
+    files = editor.files
+    editor.state.move_node("edge", (10, 300))
+    assert "●" in editor.header.content
+    files.save_button.value = True
+    assert "●" not in editor.header.content
+    assert flowmc.load(tmp_path / "example.flowmc.json").node("edge").pos == (10.0, 300.0)
+    files.save_as_name.value = "copy"
+    files.save_as_button.value = True
+    assert editor.state.path == tmp_path / "copy.flowmc.json" and (tmp_path / "copy.flowmc.json").exists()
+    assert "copy.flowmc.json" in files.open_choice.options
+    files.save_as_name.value = "../escape"
+    files.save_as_button.value = True
+    assert editor.messages[-1][0] == "error" and "leaves" in editor.messages[-1][1]
+    files.open_choice.value = "example.flowmc.json"
+    files.open_button.value = True
+    assert editor.state.path == tmp_path / "example.flowmc.json"
+    assert files.upload("bad.flowmc.json", b"{ nope") and editor.messages[-1][0] == "error"
+    text = flowmc.dumps(flowmc.load(tmp_path / "example.flowmc.json")).replace('"dx": 5.0', '"dx": 7.0')
+    assert files.upload("up.flowmc.json", text.encode())
+    assert editor.state.path is None and editor.state.node("shift").params["dx"] == 7.0
+    assert "not saved" in editor.header.content
+    files.open(files.open_choice.value)  # unsaved upload: asks first
+    modal, discard = editor.pending_modal
+    discard.value = True
+    assert editor.state.path is not None
+    target = editor.export_gcode()
+    assert target == tmp_path / "example.ngc" and "G1" in target.read_text()
+
+
+def test_make_subgraph_open_it_and_come_back(editor, tmp_path):
+    editor.state.select(nodes=["shift", "both"])
+    editor.selection.sub_name.value = "inner"
+    editor.selection.make_button.value = True
+    new = editor.state.selected_nodes[0]
+    assert editor.state.node(new).params == {"file": "inner.flowmc.json"}
+    assert editor.state.issues() == []
+    assert editor.selection.open_button.visible
+    editor.selection.open_button.value = True
+    assert editor.state.path == tmp_path / "inner.flowmc.json" and "opened from example" in editor.header.content
+    assert editor.selection.back_button.visible
+    editor.state.set_param("shift", "dx", 9.0)
+    editor.selection.back_button.value = True
+    assert editor.state.path == tmp_path / "example.flowmc.json"
+    assert flowmc.load(tmp_path / "inner.flowmc.json").node("shift").params["dx"] == 9.0
+    assert run(editor).ok
+
+
+def test_drag_moves_nodes_and_records_one_undo_step(editor):
+    import asyncio
+    from types import SimpleNamespace
+
+    index = [b.node_id for b in editor.canvas.boxes].index("shift")
+    box = editor.canvas.boxes[index]
+    start = (box.x + 0.5, box.y - 0.5, 0.0)
+
+    def drag(phase, dx, dy):
+        event = SimpleNamespace(phase=phase, instance_index=index, start_position=start,
+                                end_position=(start[0] + dx, start[1] + dy, 0.0))
+        asyncio.run(editor.canvas._on_drag(event))
+
+    drag("start", 0, 0)
+    drag("update", 0.5, 0.0)
+    drag("end", 1.0, -1.0)
+    assert editor.state.node("shift").pos == (320.0 + 1.0 / layout.SCALE, 0.0 + 1.0 / layout.SCALE)
+    editor.edit_ops.value = "Undo"
+    assert editor.state.node("shift").pos == (320.0, 0.0)
+
+
+def test_view3d_front_panel_and_device_hooks(tmp_path):
+    ed = Editor(example_file(tmp_path), port=0)
+    try:
+        ext = ed.extensions
+        assert ext.failures == {}
+        ed.run()
+        assert ed.wait().ok
+        deadline = time.time() + 10
+        while time.time() < deadline and not ext.view.nodes:
+            time.sleep(0.05)
+        assert "/path/0" in ext.view.nodes  # the run's path went to the 3D view
+    finally:
+        ed.close()
+
+
+def _serve(args, tmp_path):
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    return subprocess.Popen([sys.executable, "-m", "flowmc", "serve", *args], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _url_line(proc, deadline=30.0):
+    end = time.time() + deadline
+    while time.time() < end:
+        line = proc.stdout.readline()
+        if line.startswith("flowmc editor: "):
+            return line.split()[2]
+    raise AssertionError("no URL printed")
+
+
+def test_serve_prints_its_url_and_binds_localhost(tmp_path):
+    path = example_file(tmp_path)
+    proc = _serve([str(path), "--port", "0"], tmp_path)
+    try:
+        url = _url_line(proc)
+        assert url.startswith("http://127.0.0.1:")
+        assert urllib.request.urlopen(url, timeout=10).status == 200
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+    assert "network" not in err
+
+
+def test_serve_on_another_host_warns(tmp_path):
+    proc = _serve(["--host", "0.0.0.0", "--port", "0"], tmp_path)
+    try:
+        _url_line(proc)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+    assert "anyone" in err and "run the machine" in err
+
+
+def test_serve_refuses_a_broken_file_without_a_traceback(tmp_path):
+    (tmp_path / "bad.flowmc.json").write_text("{ nope")
+    proc = subprocess.run([sys.executable, "-m", "flowmc", "serve", "bad.flowmc.json", "--port", "0"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2 and "bad.flowmc.json" in proc.stderr and "Traceback" not in proc.stderr
+    assert Path(tmp_path / "bad.flowmc.json").read_text() == "{ nope"
+
+
+def test_failed_node_shows_its_error_on_the_canvas_and_in_the_list(tmp_path):
+    g = flowmc.GraphBuilder(title="fails")
+    n = g.add("basic.number", id="n", value=3.0, pos=(0, 0))
+    d = g.add("basic.divide", id="d", b=0.0, pos=(300, 0))
+    c = g.add("basic.check", id="c", min=0.0, pos=(600, 0))
+    g.wire(n.value, d.a)
+    g.wire(d.result, c.value)
+    g.save(tmp_path / "fails.flowmc.json")
+    ed = Editor(tmp_path / "fails.flowmc.json", port=0, extensions=False)
+    try:
+        result = run(ed)
+        assert not result.ok
+        assert {k: v[0] for k, v in ed.canvas.status.items()} == {"n": "done", "d": "failed", "c": "skipped"}
+        labels = {k: v[1] for k, v in ed.canvas._labels.items()}
+        assert labels["d/status"].startswith("✖") and "division by zero" in labels["d/status"]
+        assert labels["n/status"].startswith("done · ") and labels["n/status"].endswith(" ms")
+        assert labels["c/status"] == "skipped"
+        assert "1 node failed" in ed.problems.summary.content
+        assert "division by zero" in ed.problems.buttons[0].label
+        assert ed.messages[-1][0] == "error" and "division by zero" in ed.messages[-1][1]
+        colours = ed.canvas._handles["body"].batched_colors
+        from flowmc.ui import canvas_draw
+
+        assert tuple(colours[1]) == tuple(canvas_draw.mesh_rgb(canvas_draw.STATUS_COLORS["failed"]))
+    finally:
+        ed.close()
+
+
+def test_box_select_adds_the_nodes_inside(editor):
+    boxes = {b.node_id: b for b in editor.canvas.boxes}
+    a, b = boxes["table"], boxes["shift"]
+    inside = editor.canvas.select_box(a.x - 0.1, b.y - b.h - 0.1, b.x + b.w + 0.1, a.y + 0.1)
+    assert sorted(inside) == ["shift", "table"] and sorted(editor.state.selected_nodes) == ["shift", "table"]
