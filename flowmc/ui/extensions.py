@@ -19,8 +19,8 @@ if TYPE_CHECKING:
 
 __all__ = ["Extensions"]
 
-VIEW_WIDTH = 480
-VIEW_HEIGHT = 620
+VIEW_WIDTH = 600
+VIEW_HEIGHT = 640
 
 
 class Extensions:

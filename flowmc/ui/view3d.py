@@ -36,8 +36,10 @@ _LOG_RGB = (120, 60, 160)
 
 def embed_html(url: str, height: int = 520) -> str:
     """The ``<iframe>`` the editor puts in a docked panel (``gui.add_html(embed_html(view.url))``)."""
-    return (f'<iframe src="{html.escape(url, quote=True)}" title="flowmc 3D view" '
-            f'style="width:100%;height:{int(height)}px;border:0;display:block"></iframe>')
+    src = html.escape(url, quote=True)
+    return (f'<iframe src="{src}" title="flowmc 3D view" '
+            f'style="width:100%;height:{int(height)}px;border:0;display:block"></iframe>'
+            f'<a href="{src}" target="_blank" rel="noopener">Open the 3D view in its own tab</a>')
 
 
 class ToolpathView:
@@ -53,7 +55,8 @@ class ToolpathView:
         self.tol = tol
         self.max_plot_points = max_plot_points
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
-        self.server.gui.configure_theme(show_share_button=False, control_width="large")
+        # Its controls fold away: docked beside the editor the view is narrow, the scene comes first.
+        self.server.gui.configure_theme(show_share_button=False, control_layout="collapsible", control_width="medium")
         self.server.gui.main_panel.dock_right()  # beside the scene, not over it
         self.server.scene.set_up_direction("+z")
         self.nodes: dict[str, Any] = {}
