@@ -6,11 +6,11 @@ import json
 import os
 
 import pytest
+from pydantic import ValidationError
 
 import flowmc
 from flowmc import migrations
 from flowmc.errors import GraphError
-from pydantic import ValidationError
 from flowmc.graph import dumps, json_schema, load, loads, save
 
 
