@@ -55,8 +55,8 @@ class ToolpathView:
         self.tol = tol
         self.max_plot_points = max_plot_points
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
-        # Its controls fold away: docked beside the editor the view is narrow, the scene comes first.
-        self.server.gui.configure_theme(show_share_button=False, control_layout="collapsible", control_width="medium")
+        # Docked beside the editor the view is narrow: medium-width controls that fold away (the ">>" button).
+        self.server.gui.configure_theme(show_share_button=False, control_width="medium")
         self.server.gui.main_panel.dock_right()  # beside the scene, not over it
         self.server.scene.set_up_direction("+z")
         self.nodes: dict[str, Any] = {}
