@@ -11,6 +11,7 @@ marker the playback slider moves along the followed motion).
 from __future__ import annotations
 
 import html
+import socket
 import threading
 import time
 from typing import Any, Sequence
@@ -76,7 +77,9 @@ class ToolpathView:
 
     @property
     def url(self) -> str:
-        host = "127.0.0.1" if self.host in ("0.0.0.0", "") else self.host
+        """Where a browser finds the view: on all interfaces (``--host 0.0.0.0``), by this machine's
+        name, so the editor's iframe works from other machines too."""
+        host = socket.gethostname() if self.host in ("0.0.0.0", "::", "") else self.host
         return f"http://{host}:{self.server.get_port()}"
 
     # ------------------------------------------------------------------ GUI

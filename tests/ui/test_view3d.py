@@ -244,3 +244,13 @@ def test_embed_html_and_close_frees_the_port():
     view.close()
     with pytest.raises(OSError):
         socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+
+
+def test_a_view_on_all_interfaces_is_addressed_by_the_machine_name():
+    import socket
+
+    view = ToolpathView(host="0.0.0.0", port=0)
+    try:
+        assert view.url == f"http://{socket.gethostname()}:{view.server.get_port()}"
+    finally:
+        view.close()
