@@ -119,3 +119,16 @@ def test_overridden_ports_are_checked_when_used():
     g.add("test.dyn", id="d")
     issues = flowmc.validate(g.build())
     assert len(issues) == 1 and "node 'd'" in issues[0].message and "unknown port type" in issues[0].message
+
+
+def test_every_node_module_of_the_package_loads_and_every_type_describes_itself():
+    """A node module that fails to import is only recorded at run time: here it fails the build."""
+    from flowmc.nodes import load_all
+
+    assert load_all() == {}
+    described = registry.describe_all()
+    ids = {d["type_id"] for d in described}
+    for expected in ("path.segment_table", "path.gcode_in", "plan.lookahead", "interp.point_by_point",
+                     "device.card_output", "machine", "lib.home_all"):
+        assert expected in ids
+    assert all(d["description"] and "\n" not in d["description"] for d in described)
