@@ -24,7 +24,7 @@ from pathlib import Path as FsPath
 import numpy as np
 
 from flowmc.devices.linuxcnc.rs274 import run_rs274_file
-from flowmc.motion import gcode
+from flowmc.motion import gcode_read as gcode
 from flowmc.motion.path import Dwell
 
 RUNS = 5

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from flowmc.errors import GcodeError
-from flowmc.motion.gcode import write_gcode
+from flowmc.motion.gcode_write import write_gcode
 from flowmc.runtime import Runtime
 from flowmc.ui.state import EditorState
 

@@ -4,7 +4,7 @@ import pytest
 from linuxcnc_programs import MEASURED, TOL, machine, reference_path, thesis_path
 
 from flowmc.devices.linuxcnc.backend import run_program
-from flowmc.motion.gcode import path_to_gcode
+from flowmc.motion.gcode_write import path_to_gcode
 
 
 @pytest.fixture(scope="session")

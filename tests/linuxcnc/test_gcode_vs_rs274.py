@@ -19,7 +19,8 @@ import pytest
 
 from flowmc.devices.linuxcnc.rs274 import ARC, FEED, TRAVERSE, run_rs274, run_rs274_file
 from flowmc.errors import GcodeError
-from flowmc.motion.gcode import parse_gcode, path_to_gcode, read_gcode
+from flowmc.motion.gcode_read import parse_gcode, read_gcode
+from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.path import Arc, Dwell, Path
 
 NCFILES = FsPath("/usr/share/linuxcnc/ncfiles")

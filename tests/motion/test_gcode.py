@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from flowmc.errors import GcodeError
-from flowmc.motion import gcode
-from flowmc.motion.gcode import RAPID_FEED, parse_gcode, path_to_gcode, read_gcode, write_gcode
+from flowmc.motion import gcode_read as gcode
+from flowmc.motion.gcode_read import RAPID_FEED, parse_gcode, read_gcode
+from flowmc.motion.gcode_write import path_to_gcode, write_gcode
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, NurbsCurve, Path
 
 

@@ -24,7 +24,7 @@ from flowmc.devices.linuxcnc.backend import SERVO_PERIOD, LinuxCNCRun, StartStat
 from flowmc.devices.log import Change, DeviceLog, Event
 from flowmc.devices.ranges import CardRanges
 from flowmc.errors import DeviceError
-from flowmc.motion.gcode import path_to_gcode
+from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.trajectory import Signal, Steps, Trajectory

@@ -18,7 +18,7 @@ import numpy as np
 
 from flowmc.devices.linuxcnc.backend import MOTION_ARC, MOTION_FEED, SERVO_PERIOD, LinuxCNCRun, run_program
 from flowmc.errors import FlowmcError, GraphError
-from flowmc.motion.gcode import path_to_gcode
+from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.machine import Machine, default_machine
 from flowmc.motion.metrics import contour_error, programmed_polyline
 from flowmc.motion.path import Dwell, Path
