@@ -115,7 +115,7 @@ def main() -> int:
         rows.append(("editor start on 100-node graph (Python side)", startup, "s", None, [startup]))
         rows.append(("click -> selection drawn, 100-node graph", statistics.median(scene100), "ms", None, scene100))
 
-    print(f"\nflowmc editor benchmark (chromium, software WebGL; medians)\n")
+    print("\nflowmc editor benchmark (chromium, software WebGL; medians)\n")
     print(f"{'measure':<52} {'median':>10} {'target':>10} {'ok':>4}   {'n':>3}  {'min':>8} {'max':>8}")
     failed = False
     for name, value, unit, target, samples in rows:

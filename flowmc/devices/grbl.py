@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from flowmc.devices.card import MotionCard
-from flowmc.devices.grbl_program import PEN_COMMANDS, ProgramLine, check_pen_commands, motion_gcode, text_gcode
+from flowmc.devices.grbl_program import ProgramLine, check_pen_commands, motion_gcode, text_gcode
 from flowmc.devices.log import DeviceLog, Event
 from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CardRanges

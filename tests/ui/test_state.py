@@ -101,7 +101,7 @@ def test_wiring_a_fed_input_replaces_the_old_wire(state):
 
 def test_interface_fed_input_is_refused(tmp_path):
     g = flowmc.GraphBuilder()
-    n = g.add("basic.number", id="n")
+    g.add("basic.number", id="n")
     s = g.add("basic.add", id="s")
     g.input("a", "Number", s.a)
     st = EditorState(g.build(), folder=tmp_path)

@@ -11,7 +11,6 @@ import pytest
 import flowmc
 from flowmc.devices.sim import SimCard
 from flowmc.motion.machine import Axis, Machine
-from flowmc.motion.path import Path
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 from flowmc.nodes import load_all
 from flowmc.ui import view3d_data as data

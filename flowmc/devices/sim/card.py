@@ -367,7 +367,6 @@ class SimCard(MotionCard):
     def _program_counts(self, motion) -> tuple[np.ndarray, np.ndarray, float, float]:
         """The program as commanded counts per card period for every machine axis, with segments, the
         period and the program's own time step (a step stream's tick: the one chosen when untimed)."""
-        n = len(self.machine.axes)
         cols = axis_columns(motion.axes, self.machine)
         T = self.period
         if isinstance(motion, Trajectory):
