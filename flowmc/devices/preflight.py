@@ -214,16 +214,22 @@ def _check_dynamics(found: _Found, pos, period, cols, machine: Machine, seg, row
         (rate, rmax * (1 + _TOL), 1, "step rate", "Hz", rmax),
     )
     for values, bound, shift, name, unit, limit in checks:
-        hit = _first(values > bound)
-        if hit is not None:
-            r, c = hit
-            row = r + shift
-            found.offer(row, lambda row=row, r=r, c=c, values=values, name=name, unit=unit, limit=limit: _raise(
-                int(seg[row]), found.names, float(rows_t[row]),
-                f"{axes[c]} {name} {_fmt(values[r, c])} {unit} over the limit {_fmt(limit[c])} {unit}",
-                axis=axes[c], value=float(values[r, c]), limit=float(limit[c])))
+        _offer_over_limit(found, values, bound, shift, axes, name, unit, limit, seg, rows_t)
     peak = lambda x: np.abs(x).max(axis=0) if len(x) else np.zeros(n)  # noqa: E731
     return peak(v), peak(a), peak(rate)
+
+
+def _offer_over_limit(found: _Found, values, bound, shift: int, axes, name: str, unit: str, limit, seg, rows_t) -> None:
+    """Offer the first value over ``bound`` (row ``r`` of ``values`` is program row ``r + shift``)."""
+    hit = _first(values > bound)
+    if hit is None:
+        return
+    r, c = hit
+    row = r + shift
+    found.offer(row, lambda: _raise(
+        int(seg[row]), found.names, float(rows_t[row]),
+        f"{axes[c]} {name} {_fmt(values[r, c])} {unit} over the limit {_fmt(limit[c])} {unit}",
+        axis=axes[c], value=float(values[r, c]), limit=float(limit[c])))
 
 
 def _check_pulses(found: _Found, st: Steps, cols, machine: Machine, seg, rows_t):
@@ -241,14 +247,7 @@ def _check_pulses(found: _Found, st: Steps, cols, machine: Machine, seg, rows_t)
     rate = (absolute[k:] - absolute[:-k]) / window
     vel = np.abs(signed[k:] - signed[:-k]) * st.step_mm / window
     for values, limit, name, unit in ((rate, rmax, "step rate", "Hz"), (vel, vmax, "velocity", "mm/s")):
-        hit = _first(values > limit * (1 + _TOL))
-        if hit is not None:
-            r, c = hit
-            row = r + k
-            found.offer(row, lambda row=row, r=r, c=c, values=values, limit=limit, name=name, unit=unit: _raise(
-                int(seg[row]), found.names, float(rows_t[row]),
-                f"{st.axes[c]} {name} {_fmt(values[r, c])} {unit} over the limit {_fmt(limit[c])} {unit}",
-                axis=st.axes[c], value=float(values[r, c]), limit=float(limit[c])))
+        _offer_over_limit(found, values, limit * (1 + _TOL), k, st.axes, name, unit, limit, seg, rows_t)
     return vel.max(axis=0), rate.max(axis=0)
 
 
