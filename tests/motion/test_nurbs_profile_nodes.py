@@ -6,12 +6,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pydantic import BaseModel, ConfigDict, Field
 
 import flowmc
 from flowmc import registry
 from flowmc.motion import nurbs, timediv
-from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.path import Dwell, EllipseArc, Line, NurbsCurve
 from flowmc.motion.path import Path as PathValue
 from flowmc.nodes import load_all
@@ -20,25 +18,8 @@ from flowmc.registry import NodeType, Out
 REF = Path(__file__).resolve().parents[3] / "shared" / "reference" / "nurbs_test_curve.json"
 
 
-class MachineParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    period: float = Field(0.001, gt=0, description="period, s")
-    amax: float = Field(1000.0, gt=0, description="axis acceleration")
-
-
-class MachineSource(NodeType):
-    """Stand-in Machine source for these tests (the real Machine node is another module's)."""
-
-    type_id = "test.machine"
-    title = "Machine"
-    category = "Test"
-    description = "A Machine with the given period and acceleration."
-    Params = MachineParams
-    outputs = (Out("machine", "Machine", doc="machine"),)
-
-    def run(self, ctx, params):
-        axes = tuple(Axis(name=n, amax=params.amax, jmax=20000.0) for n in "XYZ")
-        return {"machine": Machine(axes=axes, period=params.period)}
+#: The real Machine node's axes for these tests: amax 1000 mm/s^2, jmax 20000 mm/s^3 on X, Y, Z.
+AXES = [{"name": n, "amax": 1000.0, "jmax": 20000.0} for n in "XYZ"]
 
 
 class MixedPathSource(NodeType):
@@ -63,7 +44,6 @@ class MixedPathSource(NodeType):
 def test_registry():
     load_all()
     with registry.scoped():
-        registry.register(MachineSource)
         registry.register(MixedPathSource)
         yield
 
@@ -77,7 +57,7 @@ def _nurbs_graph(spec, feed, period, corrector=1):
     g = flowmc.GraphBuilder(title="nurbs")
     ctrl = [[x, y, 0.0] for x, y in spec["control_points"]]
     src = g.add("path.nurbs", id="curve", control_points=ctrl, weights=spec["weights"], degree=3, feed=feed)
-    mach = g.add("test.machine", id="machine", period=period)
+    mach = g.add("machine", id="machine", period=period, axes=AXES)
     interp = g.add("interp.nurbs", id="interp", eps=0.001, corrector=corrector)
     g.wire(src.path, interp.path)
     g.wire(mach.machine, interp.machine)
@@ -140,7 +120,7 @@ def _table_graph(profile, method, period=0.004):
         {"type": "line", "end": [0, 0, 0]},
     ]
     table = g.add("path.segment_table", id="table", rows=rows, feed=150.0)
-    mach = g.add("test.machine", id="machine", period=period)
+    mach = g.add("machine", id="machine", period=period, axes=AXES)
     interp = g.add("interp.time_division", id="interp", profile=profile, arc_method=method, eps=0.001)
     g.wire(table.path, interp.path)
     g.wire(mach.machine, interp.machine)
