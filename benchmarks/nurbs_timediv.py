@@ -25,7 +25,7 @@ import numpy as np
 from flowmc.motion import nurbs, profiles, timediv
 
 ROOT = Path(__file__).resolve().parents[1]
-CURVE = ROOT.parent / "shared" / "reference" / "nurbs_test_curve.json"
+CURVE = ROOT / "tests" / "data" / "reference" / "nurbs_test_curve.json"
 RUNS = 5
 
 

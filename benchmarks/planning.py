@@ -28,7 +28,7 @@ from flowmc.motion.metrics import trajectory_report
 from flowmc.motion.path import Arc, Line, Path
 
 ROOT = FsPath(__file__).resolve().parents[1]
-REF = ROOT.parent / "shared" / "reference"
+REF = ROOT / "tests" / "data" / "reference"
 NAMES = ("mixed", "star10", "zigzag40", "ellipse200")
 LINUXCNC = {"mixed": 7.47, "star10": 11.89, "zigzag40": 10.95, "ellipse200": 5.27}
 TOL = 0.05

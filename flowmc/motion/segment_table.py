@@ -1,6 +1,6 @@
 """The LabVIEW thesis's segment table: rows of moves, each starting where the previous one ended.
 
-Arc convention (the thesis's, see ``shared/reference/thesis_pattern.json``): an arc starts at the
+Arc convention (the thesis's, see ``tests/data/reference/thesis_pattern.json``): an arc starts at the
 current point; ``start_angle`` is the polar angle of that point about the arc centre, so
 ``centre = start - R (cos a0, sin a0)``; it sweeps from ``start_angle`` to ``end_angle``, counter-
 clockwise when ``end_angle > start_angle``. Angles are in degrees. A sweep past 360 degrees adds

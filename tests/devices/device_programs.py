@@ -20,7 +20,7 @@ from flowmc.motion.profiles import plan_trapezoid, sample_profile
 from flowmc.motion.segment_table import path_from_rows
 from flowmc.motion.trajectory import Trajectory
 
-PATTERN = Path("/work/shared/reference/thesis_pattern.json")
+PATTERN = Path(__file__).resolve().parents[1] / "data" / "reference" / "thesis_pattern.json"
 
 
 def thesis_path(feed: float = 20.0):

@@ -14,7 +14,7 @@ from flowmc.devices.grbl_sim import GrblSimulator
 
 REPO = Path(__file__).resolve().parents[2]
 GRAPHS = REPO / "graphs"
-REFERENCE = REPO.parent / "shared" / "reference"
+REFERENCE = REPO / "tests" / "data" / "reference"
 EXAMPLES = sorted(GRAPHS.glob("*.flowmc.json"))
 
 

@@ -12,7 +12,7 @@ from flowmc.motion.metrics import programmed_polyline
 from flowmc.motion.path import Line, Path
 from flowmc.motion.segment_table import path_from_rows
 
-REFERENCE = FsPath(__file__).resolve().parents[2].parent / "shared" / "reference"
+REFERENCE = FsPath(__file__).resolve().parents[1] / "data" / "reference"
 TOL = 0.05
 #: LinuxCNC 2.9's feed-move cycle times on the reference paths (the issue's measured figures).
 MEASURED = {"mixed": 7.47, "star10": 11.89, "zigzag40": 10.95, "ellipse200": 5.27}

@@ -7,7 +7,7 @@ import numpy as np
 
 import flowmc
 
-REFERENCE = Path(__file__).resolve().parents[2].parent / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[1] / "data" / "reference"
 
 
 def test_compare_node_reports_linuxcnc_and_flowmc_side_by_side():

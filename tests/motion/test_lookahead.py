@@ -23,7 +23,7 @@ from flowmc.motion.metrics import contour_error, corner_spike_ratio, peak_ratio,
 from flowmc.motion.path import Arc, Dwell, Line, NurbsCurve, Path
 from flowmc.motion.profiles import plan_scurve
 
-REF = FsPath(__file__).resolve().parents[2] / ".." / "shared" / "reference"
+REF = FsPath(__file__).resolve().parents[1] / "data" / "reference"
 NAMES = ("mixed", "star10", "zigzag40", "ellipse200")
 MACHINE = Machine(period=0.004)  # 200 mm/s, 200 mm/s^2, 500 mm/s^3 per axis: the reference limits
 TOL = 0.05

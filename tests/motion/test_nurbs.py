@@ -9,7 +9,7 @@ import pytest
 from flowmc.errors import PathError
 from flowmc.motion import nurbs as N
 
-REF = Path(__file__).resolve().parents[3] / "shared" / "reference" / "nurbs_test_curve.json"
+REF = Path(__file__).resolve().parents[1] / "data" / "reference" / "nurbs_test_curve.json"
 
 
 @pytest.fixture(scope="module")

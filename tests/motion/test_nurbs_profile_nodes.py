@@ -15,7 +15,7 @@ from flowmc.motion.path import Path as PathValue
 from flowmc.nodes import load_all
 from flowmc.registry import NodeType, Out
 
-REF = Path(__file__).resolve().parents[3] / "shared" / "reference" / "nurbs_test_curve.json"
+REF = Path(__file__).resolve().parents[1] / "data" / "reference" / "nurbs_test_curve.json"
 
 
 #: The real Machine node's axes for these tests: amax 1000 mm/s^2, jmax 20000 mm/s^3 on X, Y, Z.

@@ -11,7 +11,7 @@ from flowmc.errors import PathError
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, NurbsCurve, Path
 from flowmc.motion.segment_table import path_from_rows
 
-REFERENCE = FsPath(__file__).resolve().parents[2].parent / "shared" / "reference"
+REFERENCE = FsPath(__file__).resolve().parents[1] / "data" / "reference"
 
 
 def thesis_path() -> Path:

@@ -13,7 +13,7 @@ from flowmc.motion.contour import image_to_path
 from flowmc.motion.offset import offset_path
 from flowmc.motion.segment_table import path_from_rows
 
-REFERENCE = FsPath(__file__).resolve().parents[2].parent / "shared" / "reference"
+REFERENCE = FsPath(__file__).resolve().parents[1] / "data" / "reference"
 
 
 def thesis() -> dict:

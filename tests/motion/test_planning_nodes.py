@@ -17,7 +17,7 @@ from flowmc.motion.metrics import trajectory_report
 from flowmc.motion.path import Path
 from flowmc.nodes import load_all
 
-REF = FsPath(__file__).resolve().parents[2] / ".." / "shared" / "reference" / "paths" / "mixed.json"
+REF = FsPath(__file__).resolve().parents[1] / "data" / "reference" / "paths" / "mixed.json"
 POINTS = [[float(x), float(y), 0.0] for x, y in json.loads(REF.read_text())["points"]]
 BOUND = json.loads(REF.read_text())["time_optimal_bound_s"]
 
