@@ -20,8 +20,7 @@ import viser
 
 from flowmc.errors import FlowmcError
 from flowmc.graph import load
-from flowmc.nodes import load_all
-from flowmc.runtime import Runtime
+from flowmc.api import Runtime
 from flowmc.ui import viser_internals
 from flowmc.ui.canvas import Canvas
 from flowmc.ui.extensions import Extensions
@@ -43,7 +42,6 @@ class Editor:
 
     def __init__(self, path: str | Path | None = None, *, host: str = "127.0.0.1", port: int = 8080,
                  folder: str | Path | None = None, extensions: bool = True):
-        load_all()
         self.lock = threading.RLock()
         self.runtime = Runtime()
         graph = load(path) if path is not None else None

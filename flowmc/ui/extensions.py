@@ -87,7 +87,7 @@ class Extensions:
             state = self.editor.state
             rerun = rerun_callback(self.editor.runtime, lambda: state.graph, self.view, on_result=self._front_result)
             with self.front_tab:
-                self.front = FrontPanel(gui, state.graph, rerun)
+                self.front = FrontPanel(gui, state.graph, rerun, self.editor.runtime.registry)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a front panel
             self._failed("front panel", exc, self.front_tab)
 

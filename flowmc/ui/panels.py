@@ -37,7 +37,7 @@ class PalettePanel:
         editor, gui = self.editor, self.editor.server.gui
         with editor.lock:
             if reload or not self.items:
-                self.items = palette_items(editor.state.base_dir, exclude=editor.state.path)
+                self.items = palette_items(editor.runtime.registry, editor.state.base_dir, exclude=editor.state.path)
             found = search(self.items, self.search.value)
             self.count.content = f"{len(found)} of {len(self.items)} entries" + (
                 f"; the first {MAX_RESULTS} shown" if len(found) > MAX_RESULTS else "")
