@@ -254,13 +254,13 @@ def cmd_schema(args: argparse.Namespace) -> int:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    _registry(args)  # the editor's palette shows the --nodes folders' types too
-    try:
-        from flowmc.ui.app import serve_main
-    except ImportError as exc:
-        _err(f"flowmc serve: the editor cannot start: {exc}")
-        return EXIT_FAILED
-    return serve_main(args)
+    """The editor, composed here: the UI gets the registry (with the --nodes folders) and one device
+    session to share."""
+    from flowmc.devices.session import DeviceSession
+    from flowmc.ui.app import serve_main
+
+    _registry(args)
+    return serve_main(args, devices=DeviceSession())
 
 
 def _graph_values(file: str, registry: Any) -> tuple[Any, Any, Any]:
