@@ -10,6 +10,7 @@ Every change goes through ``Editor.lock``: viser runs callbacks on a thread pool
 
 from __future__ import annotations
 
+import socket
 import sys
 import threading
 import time
@@ -26,11 +27,13 @@ from flowmc.ui import viser_internals
 from flowmc.ui.canvas import Canvas
 from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
+from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
 from flowmc.ui.panels import PalettePanel, ProblemsPanel
 from flowmc.ui.runner import Runner
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.state import EditorState
+from flowmc.ui.text import escape_md, md, plain
 
 __all__ = ["Editor", "serve_main"]
 
@@ -42,19 +45,20 @@ class Editor:
     """The whole editor on one viser server. ``run_listeners`` get each RunResult (the 3D view is one)."""
 
     def __init__(self, path: str | Path | None = None, *, host: str = "127.0.0.1", port: int = 8080,
-                 folder: str | Path | None = None, extensions: bool = True):
+                 folder: str | Path | None = None, extensions: bool = True, guard: Guard | None = None):
         load_all()
         self.lock = threading.RLock()
         self.runtime = Runtime()
         graph = load(path) if path is not None else None
         self.state = EditorState(graph, folder=folder, runtime=self.runtime)
         self.host = host
+        self.guard = guard or Guard(host)  # this launch's token; only the editor's own page may connect
         self.messages: list[tuple[str, str]] = []
         self.run_listeners: list[Callable[[Any], None]] = []
         self.last_result: Any = None
         self.pending_modal: Any = None
         self._titles: dict[int, str] = {}
-        self.server = viser.ViserServer(host=host, port=port, label="flowmc", verbose=False)
+        self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
         self.server.gui.main_panel.dock_right()
         self.canvas = Canvas(self.server, self.state, self.notify, self.lock)
@@ -68,8 +72,9 @@ class Editor:
 
     @property
     def url(self) -> str:
+        """The address to open, with this launch's secret token (without it the server refuses)."""
         host = "127.0.0.1" if self.host in ("0.0.0.0", "", "::") else self.host
-        return f"http://{host}:{self.server.get_port()}"
+        return self.guard.url(host, self.server.get_port())
 
     # ------------------------------------------------------------------ layout
     def _build_gui(self) -> None:
@@ -109,10 +114,10 @@ class Editor:
         """Tell the user: the line under the Run button, and a notification in the browser."""
         self.messages.append((kind, text))
         del self.messages[:-200]
-        self.status_line.content = ("⚠ " if kind == "error" else "") + text
+        self.status_line.content = ("⚠ " if kind == "error" else "") + escape_md(text)
         title = "Problem" if kind == "error" else "flowmc"
         for target in [client] if client is not None else list(self.server.get_clients().values()):
-            target.add_notification(title, text, color="red" if kind == "error" else "blue",
+            target.add_notification(title, plain(text), color="red" if kind == "error" else "blue",
                                     auto_close_seconds=8.0 if kind == "error" else 3.0)
 
     def _on_state(self, kind: str) -> None:
@@ -156,8 +161,8 @@ class Editor:
         name = state.path.name if state.path is not None else state.suggested_name + " (not saved)"
         mark = " ●" if state.dirty else ""
         opened_from = " ← ".join(reversed(state.parents))
-        self.header.content = f"### {name}{mark}" + (f"\nopened from {opened_from}" if opened_from else "")
-        title = f"{'● ' if mark else ''}{name} — flowmc"
+        self.header.content = md("### {}{}", name, mark) + (md("\nopened from {}", opened_from) if opened_from else "")
+        title = plain(f"{'● ' if mark else ''}{name} — flowmc", 200)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             if self._titles.get(client.client_id) != title:
                 self._titles[client.client_id] = title
@@ -261,10 +266,13 @@ def serve_main(args: Any) -> int:
     """``flowmc serve [FILE] [--host] [--port]``: start the editor, print its URL, serve until Ctrl+C."""
     host, port = getattr(args, "host", "127.0.0.1"), getattr(args, "port", 8080)
     file = getattr(args, "file", None)
-    if host not in ("127.0.0.1", "localhost", "::1"):
+    if not is_loopback(host):
         print(NETWORK_WARNING.format(host=host), file=sys.stderr)
     editor = Editor(file, host=host, port=port, folder=None if file else Path.cwd())
     print(f"flowmc editor: {editor.url}" + (f"  ({file})" if file else ""), flush=True)
+    if not is_loopback(host):
+        name = socket.gethostname() if host in ("0.0.0.0", "::", "") else host
+        print(f"  from other machines: {editor.guard.url(name, editor.server.get_port())}", flush=True)
     try:
         while True:
             time.sleep(3600)

@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import FlowmcError
+from flowmc.ui.text import md
 
 if TYPE_CHECKING:
     from flowmc.ui.app import Editor
@@ -43,14 +44,14 @@ class Extensions:
         self.failures[what] = text
         if container is not None:
             with container:
-                self.editor.server.gui.add_markdown(f"The {what} is not available: {text}")
+                self.editor.server.gui.add_markdown(md("The {} is not available: {}", what, text))
 
     # ------------------------------------------------------------------ 3D view
     def _start_view(self, gui: Any) -> None:
         try:
             from flowmc.ui.view3d import ToolpathView, embed_html
 
-            self.view = ToolpathView(host=self.editor.host, port=0)
+            self.view = ToolpathView(host=self.editor.host, port=0, guard=self.editor.guard)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a 3D view
             self._failed("3D view", exc)
             return
