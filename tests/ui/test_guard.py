@@ -214,7 +214,7 @@ def test_a_client_cannot_change_callbacks_or_disabled_controls(editor):
         _settle(ws)
     assert download._impl.update_cb == callbacks and name_field._impl.sync_cb is sync
     assert choice.value in choice.options and name_field.value == "renamed.flowmc.json"
-    assert editor.runner.thread is None and editor.last_result is None
+    assert not editor.session.running and editor.last_result is None
 
 
 def test_update_rules_for_each_kind_of_control(editor):

@@ -19,6 +19,7 @@ from viser import _messages
 from viser.infra import _infra
 
 import flowmc
+from flowmc.devices.session import DeviceSession
 from flowmc.ui.app import Editor
 from flowmc.ui.text import escape_html, escape_md, md, plain, unescape_md
 
@@ -113,7 +114,7 @@ def _check_markdown(text: str) -> None:
 def test_every_ui_path_shows_hostile_text_as_text(tmp_path, monkeypatch):
     folder, runs, broken = _hostile_folder(tmp_path)
     recorder = Recorder(monkeypatch)
-    editor = Editor(runs, port=0)
+    editor = Editor(runs, port=0, devices=DeviceSession())
     try:
         with chromium() as browser:
             page = browser.new_page(viewport={"width": 1600, "height": 1000})
