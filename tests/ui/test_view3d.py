@@ -12,12 +12,10 @@ import flowmc
 from flowmc.devices.sim import SimCard
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
-from flowmc.nodes import load_all
 from flowmc.ui import view3d_data as data
 from flowmc.ui.view3d import ToolpathView, embed_html
 from flowmc.ui.text import unescape_md
 
-load_all()
 
 ROWS = [
     {"type": "line", "end": [30.0, 0.0, 0.0]},
