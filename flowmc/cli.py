@@ -33,7 +33,17 @@ def _err(line: str) -> None:
 # ---------------------------------------------------------------- values from the command line
 
 def parse_value(port_type: str | None, text: str, what: str) -> Any:
-    """Turn command-line text into a value for a port type (None: any JSON, else the text)."""
+    """Turn command-line text into a value for a port type (None: any JSON, else the text).
+
+    >>> parse_value("Number", "3", "--input n"), parse_value("Number", "2.5", "--input n")
+    (3, 2.5)
+    >>> parse_value("Bool", "on", "--input b"), parse_value(None, "[1, 2]", "--input v")
+    (True, [1, 2])
+    >>> parse_value("Path", "x", "--input p")
+    Traceback (most recent call last):
+    ...
+    flowmc.cli.UsageError: --input p: a Path cannot be given on the command line
+    """
     if port_type == "Text":
         return text
     if port_type == "Number":
@@ -81,7 +91,8 @@ def apply_sets(graph: Any, sets: list[str], registry: Any) -> None:
             raise UsageError(f"{what}: node {node_id!r} has unknown type {node.type!r}") from None
         fields = cls.Params.model_fields
         if param not in fields:
-            raise UsageError(f"{what}: node {node_id!r} ({node.type}) has no param {param!r} (params: {', '.join(fields) or 'none'})")
+            raise UsageError(f"{what}: node {node_id!r} ({node.type}) has no param {param!r} "
+                             f"(params: {', '.join(fields) or 'none'})")
         _refuse_fed_param(graph, target, what)
         port_types = {p.name: p.types[0] for p in cls.param_ports()}
         node.params[param] = parse_value(port_types.get(param), text, what)
@@ -238,7 +249,8 @@ def cmd_nodes(args: argparse.Namespace) -> int:
             wired = {p["name"] for p in d["param_inputs"]}
             for name, prop in d["params_schema"].get("properties", {}).items():
                 if name not in wired:
-                    print(f"    param {name}: {prop.get('type', 'value')}" + (f" = {json.dumps(prop['default'])}" if "default" in prop else ""))
+                    default = f" = {json.dumps(prop['default'])}" if "default" in prop else ""
+                    print(f"    param {name}: {prop.get('type', 'value')}{default}")
             for port in d["outputs"]:
                 print(_port_line("out", port))
     for where, error in registry.failures.items():
@@ -304,7 +316,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from flowmc import __version__
+
     parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
+    parser.add_argument("--version", action="version", version=f"flowmc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     plugins = argparse.ArgumentParser(add_help=False)
     plugins.add_argument("--nodes", action="append", default=[], metavar="DIR",
