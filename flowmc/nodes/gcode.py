@@ -7,7 +7,7 @@ from typing import Annotated
 from pydantic import BaseModel, ConfigDict, Field
 
 from flowmc.errors import GcodeError
-from flowmc.motion.gcode_read import RAPID_FEED, parse_gcode, read_gcode
+from flowmc.motion.gcode import RAPID_FEED, parse_gcode, read_gcode
 from flowmc.motion.gcode_write import path_to_gcode, write_gcode
 from flowmc.motion.path import Path
 from flowmc.registry import In, NodeType, Out, register

@@ -19,7 +19,7 @@ import pytest
 
 from flowmc.devices.linuxcnc.rs274 import ARC, FEED, TRAVERSE, run_rs274, run_rs274_file
 from flowmc.errors import GcodeError
-from flowmc.motion.gcode_read import parse_gcode, read_gcode
+from flowmc.motion.gcode import parse_gcode, read_gcode
 from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.path import Arc, Dwell, Path
 
@@ -119,7 +119,7 @@ def assert_events_agree(path: Path, ref) -> None:
 
 def check_program(text: str, name: str, tol: float = MM_TOL, events: bool = True) -> Path:
     path = parse_gcode(text, name)
-    ref = run_rs274(text, name=name)
+    ref = run_rs274(text, name=name).in_machine_coordinates()
     assert_moves_agree(path, ref, tol)
     if events:
         assert_events_agree(path, ref)

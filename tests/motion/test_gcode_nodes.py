@@ -5,7 +5,7 @@ from pathlib import Path as FsPath
 import numpy as np
 
 import flowmc
-from flowmc.motion.gcode_read import parse_gcode, read_gcode
+from flowmc.motion.gcode import parse_gcode, read_gcode
 from flowmc.motion.gcode_write import path_to_gcode
 
 PROGRAM = """\
