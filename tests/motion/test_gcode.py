@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from flowmc.errors import GcodeError
-from flowmc.motion import gcode_read as gcode
 from flowmc.motion.gcode import RAPID_FEED, parse_gcode, read_gcode
 from flowmc.motion.gcode_write import path_to_gcode, write_gcode
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, NurbsCurve, Path
@@ -239,7 +238,7 @@ def test_an_empty_program_is_an_empty_path():
 # ------------------------------------------------------------------ errors name the line
 
 @pytest.mark.parametrize("text, line, message", [
-    ("G1 X1 F60\nG41 D1\n", 2, "tool T1 (D word) is not in the tool table"),
+    ("G1 X1 F60\nG41 D-1\n", 2, "D word (tool number) must be >= 0"),
     ("G1 X1 F60\nG1.5 X2\n", 2, "G1.5 is not a G-code LinuxCNC or flowmc knows"),
     ("G1 X1 F60\nG38.2 Z-5\n", 2, "G38.2 is not supported (probing (G38.x) is not supported"),
     ("G0 X1\nG33 Z-5 K1\n", 2, "G33 needs the spindle turning"),
@@ -247,7 +246,7 @@ def test_an_empty_program_is_an_empty_path():
     ("G0 X1\nG76 P1 Z-1 I-1 J1 K1\n", 2, "G76 is not supported (the threading cycle"),
     ("G0 X1\nG1 X2 A90 F100\n", 2, "axis A is not supported"),
     ("G81 X1 Y1 Z-1 R1\n", 1, "G81 with no feed rate"),
-    ("M6 T1\n", 1, "tool T1 is not in the tool table"),
+    ("M6 T-2\n", 1, "tool number (T) must be >= 0"),
     ("M123\n", 1, "user-defined"),
     ("M66 P0 L0\n", 1, "M66 is not supported (waiting on inputs"),
     ("T-1\n", 1, "tool number (T) must be >= 0"),
@@ -327,6 +326,18 @@ def test_bad_input_is_an_error_naming_the_line(text, line, message):
     assert str(err.value).startswith(f"bad.ngc:{line}: ")
 
 
+def test_with_a_tool_table_an_unknown_tool_is_refused_and_without_one_every_tool_is_known():
+    from flowmc.motion.gcode import parse_tool_table
+
+    table = parse_tool_table("T1 P1 Z0.5 D6 ;six\n", "t.tbl")
+    with pytest.raises(GcodeError, match="tool T2 is not in the tool table"):
+        parse_gcode("T2 M6\n", "x.ngc", tool_table=table)
+    with pytest.raises(GcodeError, match="tool T3 .D word. is not in the tool table"):
+        parse_gcode("G41 D3\n", "x.ngc", tool_table=table)
+    path = parse_gcode("T2 M6\nG43\nG0 Z1\n", "x.ngc")
+    assert path.events()[0][1].tool == 2 and path[-1].end[2] == 1.0
+
+
 def test_error_messages_quote_the_line():
     with pytest.raises(GcodeError, match=r"\(in: G2 X20 R4\)$"):
         parse_gcode("G1 X1 F60\nG2 X20 R4\n")
@@ -348,19 +359,6 @@ def test_the_earliest_problem_is_reported_whatever_kind_it_is():
 def test_nothing_after_the_program_end_is_checked():
     p = parse_gcode("G0 X1\nM2\nG41 $$$ (\n")
     assert len(p) == 1
-
-
-def test_the_fast_and_the_line_by_line_readers_agree():
-    text = "\n".join(["G21 G90 F600", "g0 x1 y-2.5 z+.5", "N7 G1 X1. Y.25", "", "G2 X3 Y.25 I1 J0 P2",
-                      "M62 P3", "S1200 M4", "G4 P0.5", "M2"])
-    clean = gcode._clean(text, False)
-    fast = gcode._tokenise(clean, text, "t")
-    slow = gcode._tokenise_lines(clean, text, "t")
-    assert fast.pending is None and slow.pending is None
-    np.testing.assert_array_equal(fast.letters, slow.letters)
-    np.testing.assert_array_equal(fast.values, slow.values)
-    np.testing.assert_array_equal(fast.lines, slow.lines)
-    assert bytes(fast.letters).decode().startswith("GGFGXYZGXY")
 
 
 def test_segments_are_the_same_as_the_public_constructors_make():

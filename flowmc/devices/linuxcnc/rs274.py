@@ -28,6 +28,7 @@ import numpy as np
 from flowmc.errors import GcodeError
 
 __all__ = [
+    "MACHINE_UNITS_MM",
     "TRAVERSE",
     "FEED",
     "ARC",
@@ -44,6 +45,10 @@ __all__ = [
 TRAVERSE, FEED, ARC, NURBS = 0, 1, 2, 3
 KIND_NAMES = ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED", "NURBS_FEED")
 _KIND = {name: k for k, name in enumerate(KIND_NAMES)}
+
+#: mm per machine unit in the standalone rs274: it reads tool tables and parameter files in inches,
+#: converting with its "external length units" of 0.03937007874016 inch per mm (not exactly 1/25.4).
+MACHINE_UNITS_MM = 1.0 / 0.03937007874016
 
 CONFIG_DIR = Path(__file__).with_name("config")
 TOOL_TABLE = CONFIG_DIR / "tool.tbl"

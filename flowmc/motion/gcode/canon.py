@@ -145,6 +145,33 @@ class Canon:
         self.line.append(line)
         self.arcs[k] = (centre[0], centre[1], centre[2], normal_axis, ccw, turns)
 
+    def extend_moves(self, ends, rapid, feed, spindle, file: int, lines, arcs, centres, normals, ccw,
+                     turns) -> None:
+        """Many lines and arcs at once (numpy arrays, one row per move): rows ``arcs`` are arcs about
+        ``centres``. Pending output changes go with the first, as ``line_to`` does."""
+        m = len(ends)
+        if m == 0:
+            return
+        if self.now_out or self.now_an or self.sync_out or self.sync_an:
+            self._before_move(float(feed[0]), float(spindle[0]))
+        k0 = len(self.kind)
+        kind = np.zeros(m, dtype=np.int64)
+        kind[arcs] = ARC
+        self.kind.extend(kind.tolist())
+        self.x.extend(ends[:, 0].tolist())
+        self.y.extend(ends[:, 1].tolist())
+        self.z.extend(ends[:, 2].tolist())
+        self.rapid.extend(np.asarray(rapid).tolist())
+        feed = np.where(rapid, self.rapid_feed, feed)
+        self.feed.extend(feed.tolist())
+        self.spindle.extend(np.asarray(spindle, dtype=float).tolist())
+        self.file.extend([file] * m)
+        self.line.extend(np.asarray(lines).tolist())
+        arc_rows = (np.asarray(arcs) + k0).tolist()
+        for k, c, nrm, cc, t in zip(arc_rows, centres.tolist(), np.asarray(normals).tolist(),
+                                    np.asarray(ccw).tolist(), np.asarray(turns).tolist()):
+            self.arcs[k] = (c[0], c[1], c[2], nrm, cc, t)
+
     def nurbs_to(self, points: list, degree: int, feed: float, spindle: float, file: int, line: int) -> None:
         """A NURBS (G5/G5.1 spline) through machine-coordinate control points; it ends on the last."""
         if self.now_out or self.now_an or self.sync_out or self.sync_an:
@@ -199,6 +226,18 @@ class Canon:
                 sources = [f"{files[f]}:{line}" for f, line in zip(self.file, self.line)]
             new = object.__new__
             out = [None] * n
+            arc_index = list(self.arcs)
+            if arc_index:
+                table = np.array(list(self.arcs.values()), dtype=float)
+                centres = table[:, :3].copy()
+                normals = table[:, 3].astype(np.int64)
+                starts_at = ends[np.maximum(np.array(arc_index) - 1, 0)]
+                starts_at[np.array(arc_index) == 0] = start
+                rows_a = np.arange(len(arc_index))
+                centres[rows_a, normals] = starts_at[rows_a, normals]
+                centres.setflags(write=False)
+                arc_row = dict(zip(arc_index, range(len(arc_index))))
+                centre_rows = list(centres)
             kinds, rapids, feeds, spindles = self.kind, self.rapid, self.feed, self.spindle
             arcs, dwells, events = self.arcs, self.dwells, self.events
             prev_rapid = None
@@ -212,12 +251,10 @@ class Canon:
                                         source=sources[k])
                     prev_rapid = rapid
                 elif kind == ARC:
-                    cx, cy, cz, normal, ccw, turns = arcs[k]
-                    centre = np.array((cx, cy, cz))
-                    centre[normal] = start_rows[k][normal]
-                    centre.setflags(write=False)
+                    _, _, _, normal, ccw, turns = arcs[k]
                     seg = new(Arc)
-                    seg.__dict__.update(start=start_rows[k], end=end_rows[k], center=centre, normal_axis=normal,
+                    seg.__dict__.update(start=start_rows[k], end=end_rows[k], center=centre_rows[arc_row[k]],
+                                        normal_axis=normal,
                                         ccw=ccw, turns=turns, feed=feeds[k], rapid=False, tool_down=True,
                                         spindle=spindles[k], outputs=(), analog=(), source=sources[k])
                     prev_rapid = False

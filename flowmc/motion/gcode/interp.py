@@ -15,6 +15,7 @@ Cutter compensation (``comp``) and canned cycles (``cycles``) emit through the s
 
 from __future__ import annotations
 
+import bisect
 import math
 import re
 from dataclasses import dataclass, field
@@ -24,8 +25,9 @@ from flowmc.motion.gcode import codes as C
 from flowmc.motion.gcode import expr as X
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, ArcError, centre_ijk, centre_r
 from flowmc.motion.gcode.canon import Canon
-from flowmc.motion.gcode.expr import EvalError, evaluate
-from flowmc.motion.gcode.params import Parameters
+from flowmc.motion.gcode.expr import EvalError, compile_value, evaluate
+from flowmc.motion.gcode.fastpath import run_plain
+from flowmc.motion.gcode.params import _COMPUTED, Parameters
 from flowmc.motion.gcode.program import Source, read_program_file, subroutine_file
 from flowmc.motion.gcode.tools import Tool, ToolTable
 from flowmc.motion.path import PLANES, PathEvent
@@ -135,6 +137,7 @@ class Interpreter:
         self.arc_not_allowed = False
         self.warned_sync = False
         self.spline_ij = None
+        self.slow_until = 0  # lines before this are read one by one (a run the fast path gave up on)
         self.extra_axes = None  # A/B/C/U/V/W words of the current line
         self.extra_pos: dict = {}
         self.tlo = [0.0, 0.0, 0.0]
@@ -158,6 +161,13 @@ class Interpreter:
         if num[5210] == 1.0:
             self.g92 = [num[5211 + k] * self.machine_mm for k in range(3)]
         self._sync_program_position()
+
+    def _tool(self, number: int) -> Tool | None:
+        """A tool's table entry; without a tool table every tool is known, with zero length and size."""
+        entry = self.tools.get(number)
+        if entry is None and self.options.tool_table is None:
+            return Tool(number, number)
+        return entry
 
     # Positions and offsets --------------------------------------------------------------------
     def to_machine(self, x: float, y: float, z: float) -> tuple[float, float, float]:
@@ -204,7 +214,7 @@ class Interpreter:
         if 5081 <= index <= 5089:
             k = index - 5081
             return self.tlo[k] / s if k < 3 else 0.0
-        tool = self.tools.get(self.current_tool) or Tool(self.current_tool)
+        tool = self._tool(self.current_tool) or Tool(self.current_tool)
         if index == 5400:
             return float(self.current_tool)
         if 5401 <= index <= 5409:
@@ -277,6 +287,8 @@ class Interpreter:
         max_segments = self.options.max_segments
         block_delete = self.options.block_delete
         canon = self.canon
+        main = self.sources[0]
+        run_ends = main.plain_run_ends() if len(main.lines) >= _FAST_MIN_LINES else None
         while not self.ended:
             src = self.src
             i = self.pc
@@ -292,11 +304,27 @@ class Interpreter:
                                                f"(its closing O-word is missing)")
                 self._finish(src, max(src.end - 1, 0))
                 return
+            if run_ends is not None and run_ends[i] - i >= _FAST_MIN_RUN and i >= self.slow_until \
+                    and not self.frames and not self.loops and src is main and self._fast_ready():
+                stop = run_ends[i]
+                if True:
+                    done = run_plain(self, src, i, stop)
+                    if done < 0:
+                        self.slow_until = stop
+                    elif done:
+                        self.pc = i + done
+                        self.blocks_run += done
+                        if len(canon.kind) > max_segments:
+                            raise self._error(src, i + done - 1, f"the program makes more than {max_segments} "
+                                                                 f"segments; raise max_segments if it is meant to")
+                        continue
             self.pc = i + 1
             cached = src.cache.get(i, False) if (self.frames or self.loops) else False
             if cached is False:
                 block = src.parse(i)
                 if self.frames or self.loops:
+                    if block is not None and not block.const:
+                        self._compile(block)
                     src.cache[i] = block
             else:
                 block = cached
@@ -321,6 +349,26 @@ class Interpreter:
                 raise self._error(src, i, f"the program makes more than {max_segments} segments; "
                                           f"raise max_segments if it is meant to")
 
+    def _fast_ready(self) -> bool:
+        """Whether a run of plain lines may be read at once (nothing special in force)."""
+        canon = self.canon
+        return (self.comp_mode == 400 and self.feed_mode == 940 and not self.diameter_mode and self.rotation == 0.0
+                and not self.arc_not_allowed and not (canon.sync_out or canon.sync_an or canon.now_out
+                                                      or canon.now_an))
+
+    def _compile(self, block) -> None:
+        """Turn a kept line's expressions into closures (it will run again: a loop or a subroutine)."""
+        params, computed = self.params, _COMPUTED
+        block.words = {k: compile_value(v, params, computed) for k, v in block.words.items()}
+        block.g = [compile_value(v, params, computed) for v in block.g]
+        block.m = [compile_value(v, params, computed) for v in block.m]
+        block.assign = [(t if type(t) is not tuple else compile_value(t, params, computed),
+                         compile_value(v, params, computed)) for t, v in block.assign]
+        if block.oword is not None:
+            label, keyword, args = block.oword
+            label = label if type(label) in (str, int) else compile_value(label, params, computed)
+            block.oword = (label, keyword, [compile_value(a, params, computed) for a in args])
+
     def _finish(self, src: Source, line: int) -> None:
         if self.comp is not None:
             self.comp.flush()
@@ -343,23 +391,30 @@ class Interpreter:
             return None
         return self._label(block.oword[0]), block.oword[1]
 
-    def _scan(self, src: Source, start: int, label, keywords: tuple, stop_at_sub: bool = True) -> tuple[int, str]:
-        """The next line at or after ``start`` with an O-word of ``label`` and a keyword in ``keywords``."""
+    def _scan(self, src: Source, start: int, label, keywords: tuple) -> tuple[int, str]:
+        """The next line at or after ``start`` with an O-word of ``label`` and a keyword in ``keywords``
+        (remembered per file when every label on the way is a constant, as loops ask again)."""
+        memo_key = (start, label, keywords)
+        found = src.scans.get(memo_key)
+        if found is not None:
+            return found
         lines = src.oword_lines()
-        lo, hi = 0, len(lines)
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if lines[mid] < start:
-                lo = mid + 1
-            else:
-                hi = mid
-        for k in lines[lo:]:
-            found = self._oword_at(src, k)
-            if found is None:
+        constant = True
+        for j in range(bisect.bisect_left(lines, start), len(lines)):
+            k = lines[j]
+            block = src.cache.get(k, False)
+            if block is False:
+                block = src.parse(k)
+                src.cache[k] = block
+            if block is None or block.oword is None:
                 continue
-            lab, key = found
-            if lab == label and key in keywords:
-                return k, key
+            raw = block.oword[0]
+            if type(raw) is not str and type(raw) is not int:
+                constant = False
+            if self._label(raw) == label and block.oword[1] in keywords:
+                if constant:
+                    src.scans[memo_key] = (k, block.oword[1])
+                return k, block.oword[1]
         raise InterpError(f"no matching 'o{_label_text(label)} {' / '.join(keywords)}' follows")
 
     def _open_loops(self) -> dict:
@@ -553,21 +608,26 @@ class Interpreter:
             words, gvals, mvals = b.words, b.g, b.m
             assigns = b.assign
         else:
-            words = {k: (v if type(v) is float else evaluate(v, params)) for k, v in b.words.items()}
+            words = {k: (v if type(v) is float else v() if type(v) is not tuple else evaluate(v, params))
+                     for k, v in b.words.items()}
             gvals = [v if type(v) is float else evaluate(v, params) for v in b.g]
             mvals = [v if type(v) is float else evaluate(v, params) for v in b.m]
-            assigns = [(t, v if type(v) is float else evaluate(v, params)) for t, v in b.assign]
+            assigns = [(t if type(t) is not tuple else X.param_index(evaluate(t[1], params)),
+                        v if type(v) is float else evaluate(v, params)) for t, v in b.assign]
         if assigns:
             for target, value in assigns:
+                if value - value != 0.0:
+                    raise InterpError("number too large (a parameter cannot hold it)")
                 if type(target) is int:
                     params.set_number(target, value)
-                elif type(target) is str:
-                    params.set_named(target, value)
                 else:
-                    params.set_number(X.param_index(evaluate(target[1], params)), value)
+                    params.set_named(target, value)
         if b.comment is not None:
             self._comment(b.comment, src, i)
         if not words and not gvals and not mvals:
+            return
+        if not mvals and words.keys() <= _XYZF and self.comp_mode == 400 and self.feed_mode == 940 \
+                and not self.diameter_mode and len(gvals) <= 1 and self._fast_move(words, gvals, src, i):
             return
         for value in words.values():
             if value != value or value in (math.inf, -math.inf):
@@ -638,6 +698,57 @@ class Interpreter:
         self.canon.dwell(0.0, self.feed, self._spindle_rpm(), src.index, i + 1,
                          PathEvent("index", f"index {what}: flowmc has no such axis, so the job stops for it"))
 
+    def _fast_move(self, w: dict, gvals: list, src: Source, i: int) -> bool:
+        """The common block, G0/G1 with X/Y/Z/F words only, without the full order of execution;
+        False leaves the block to ``_execute``."""
+        if gvals:
+            code = gvals[0]
+            if code == 0.0:
+                motion = 0
+            elif code == 1.0:
+                motion = 10
+            else:
+                return False
+        else:
+            motion = self.motion
+            if motion != 0 and motion != 10:
+                return False
+        for value in w.values():
+            if value - value != 0.0:
+                raise InterpError("number too large")
+        scale = self.scale
+        if "F" in w:
+            f = w["F"]
+            if f < 0:
+                raise InterpError("negative F word (feed)")
+            self.feed_word = f
+            self.feed = f * scale / 60.0
+        has_axis = "X" in w or "Y" in w or "Z" in w
+        if not gvals and not has_axis:
+            return True
+        x, y, z = self.x, self.y, self.z
+        if self.incremental:
+            if "X" in w:
+                x += w["X"] * scale
+            if "Y" in w:
+                y += w["Y"] * scale
+            if "Z" in w:
+                z += w["Z"] * scale
+        else:
+            if "X" in w:
+                x = w["X"] * scale
+            if "Y" in w:
+                y = w["Y"] * scale
+            if "Z" in w:
+                z = w["Z"] * scale
+        if motion == 10 and not self.feed > 0:
+            raise InterpError("G1 with no feed rate: program an F word first")
+        self.arc_not_allowed = False
+        self.cycle_il = None
+        self._straight(x, y, z, motion == 0, src, i)
+        self.motion = motion
+        return True
+
     def _comment(self, text: str, src: Source, i: int) -> None:
         match = _ACTIVE_COMMENT.match(text)
         if match is None:
@@ -696,7 +807,7 @@ class Interpreter:
             tool = _integer(w["T"], "tool number (T)")
             if tool < 0:
                 raise InterpError("tool number (T) must be >= 0")
-            if tool != 0 and self.tools.get(tool) is None:
+            if tool != 0 and self._tool(tool) is None:
                 raise InterpError(f"tool T{tool} is not in the tool table")
             self.selected_tool = tool
         # 7. I/O.
@@ -711,7 +822,7 @@ class Interpreter:
             if "Q" not in w:
                 raise InterpError("M61 needs a Q word (the tool now in the spindle)")
             tool = _integer(w["Q"], "M61 tool number (Q)")
-            if tool < 0 or (tool != 0 and self.tools.get(tool) is None):
+            if tool < 0 or (tool != 0 and self._tool(tool) is None):
                 raise InterpError(f"tool T{tool} is not in the tool table")
             self.current_tool = tool
             self._synch()
@@ -869,7 +980,7 @@ class Interpreter:
             raise InterpError("a tool change (M6) is not allowed while cutter compensation is on")
         tool = self.selected_tool if self.selected_tool >= 0 else self.current_tool
         self.spindle_dir = 0  # LinuxCNC stops the spindle for a tool change
-        entry = self.tools.get(tool)
+        entry = self._tool(tool)
         if tool == 0:
             message = "unload the tool (T0)"
         else:
@@ -993,7 +1104,7 @@ class Interpreter:
                 number = _integer(w["D"], "D word (tool number)")
                 if number < 0:
                     raise InterpError("D word (tool number) must be >= 0")
-            entry = self.tools.get(number)
+            entry = self._tool(number)
             if entry is None:
                 raise InterpError(f"tool T{number} (D word) is not in the tool table")
             radius = entry.diameter / 2.0
@@ -1024,7 +1135,7 @@ class Interpreter:
             number = self.current_tool
             if "H" in w:
                 number = _integer(w["H"], "H word (tool number)")
-            entry = self.tools.get(number)
+            entry = self._tool(number)
             if entry is None:
                 raise InterpError(f"tool T{number} (H word) is not in the tool table")
             self.tlo = list(entry.offset)
@@ -1032,7 +1143,7 @@ class Interpreter:
             self.tlo = [w.get("X", 0.0) * self.scale, w.get("Y", 0.0) * self.scale, w.get("Z", 0.0) * self.scale]
         elif code == 432:
             if "H" in w:
-                entry = self.tools.get(_integer(w["H"], "H word (tool number)"))
+                entry = self._tool(_integer(w["H"], "H word (tool number)"))
                 if entry is None:
                     raise InterpError(f"tool T{_integer(w['H'], 'H')} (H word) is not in the tool table")
                 add = entry.offset
@@ -1095,16 +1206,16 @@ class Interpreter:
         if code == 100:
             self._g10(w)
         elif code in (280, 300):
+            # A rapid to the intermediate point (where the axis words say; here, without any), then
+            # to the stored position: only the named axes, or all of them when none is named.
             base = 5161 if code == 280 else 5181
-            if "X" in w or "Y" in w or "Z" in w:
-                x, y, z = self._axis_targets(w)
-                self._straight(x, y, z, True, src, i)
-                home = [num[base + k] * mm for k in range(3)]
-                mx = home[0] if "X" in w else self.mx
-                my = home[1] if "Y" in w else self.my
-                mz = home[2] if "Z" in w else self.mz
-            else:
-                mx, my, mz = (num[base + k] * mm for k in range(3))
+            x, y, z = self._axis_targets(w)
+            self._straight(x, y, z, True, src, i)
+            home = [num[base + k] * mm for k in range(3)]
+            named = "X" in w or "Y" in w or "Z" in w
+            mx = home[0] if "X" in w or not named else self.mx
+            my = home[1] if "Y" in w or not named else self.my
+            mz = home[2] if "Z" in w or not named else self.mz
             self._straight(*self.to_program(mx, my, mz), True, src, i)
         elif code in (281, 301):
             base = 5161 if code == 281 else 5181
@@ -1174,7 +1285,7 @@ class Interpreter:
                 self._sync_program_position()
             return
         if level in (1, 10, 11):
-            entry = self.tools.get(p)
+            entry = self._tool(p)
             if p <= 0 or entry is None:
                 entry = Tool(p, p)
             offset = list(entry.offset)
@@ -1458,6 +1569,11 @@ class Interpreter:
             raise InterpError("H word with nothing to use it (G43 and G43.2 use H)")
         if "D" in w and g.get(C.COMP) not in (410, 420, 411, 421):
             raise InterpError("D word with nothing to use it (G41/G42 use D)")
+
+
+_XYZF = frozenset("XYZF")
+_FAST_MIN_LINES = 200  # files shorter than this are read line by line
+_FAST_MIN_RUN = 32  # plain runs shorter than this too
 
 
 def _label_text(label) -> str:

@@ -117,6 +117,18 @@ def parse_line(code: str) -> Block:
         for letter, number in _WORD.findall(rest):
             _add_word(block, words, letter, float(number))
         return block
+    try:
+        return _parse_tokens(code, i, block)
+    except (_Fallback, IndexError, KeyError, ValueError):
+        block = Block()
+        block.delete = code[:1] == "/"
+    return _parse_chars(code, i, block)
+
+
+def _parse_chars(code: str, i: int, block: Block) -> Block:
+    """Character by character, as LinuxCNC reads: slower than the token parser, and the one that
+    explains what is wrong with a line."""
+    n = len(code)
     words = block.words
     while i < n:
         c = code[i]
@@ -125,7 +137,7 @@ def parse_line(code: str) -> Block:
             if i >= n or code[i] != "=":
                 raise LexError("a parameter on its own must be set: '=' is missing after it")
             value, i = _read_value(code, i + 1)
-            if type(value) is not float:
+            if type(value) is not float or type(target) is tuple:
                 block.const = False
             block.assign.append((target, value))
             continue
@@ -143,6 +155,151 @@ def parse_line(code: str) -> Block:
             continue
         raise LexError(_unexpected(code, i))
     return block
+
+
+class _Fallback(Exception):
+    """The token parser met something it leaves to the character parser."""
+
+
+_TOKEN = re.compile(r"\d+\.?\d*|\.\d+|\*\*|<[^>]*>|[A-Z]+|[^\dA-Z]")
+_FUNCTIONS = frozenset(("ABS", "ACOS", "ASIN", "ATAN", "COS", "EXISTS", "EXP", "FIX", "FUP", "LN", "ROUND", "SIN",
+                        "SQRT", "TAN"))
+_OPERATOR_WORDS = ("MOD", "AND", "XOR", "OR", "EQ", "NE", "GT", "GE", "LT", "LE")
+_WORD_LETTERS = frozenset("ABCDEFGHIJKLMPQRSTUVWXYZ@^")
+
+
+def _parse_tokens(code: str, i: int, block: Block) -> Block:
+    """The fast way through a line with expressions: one regex split into tokens, then precedence
+    climbing over the token list. Anything unusual is left to ``_parse_chars`` (raise _Fallback)."""
+    toks = _TOKEN.findall(code, i)
+    n = len(toks)
+    k = 0
+    words = block.words
+    const = True
+    while k < n:
+        t = toks[k]
+        if t == "#":
+            if k + 1 < n and toks[k + 1][0] == "<":
+                target = toks[k + 1][1:-1].lower()
+                if not target:
+                    raise _Fallback
+                k += 2
+            else:
+                index, k = _tvalue(toks, k + 1)
+                if type(index) is float:
+                    target = X.param_index(index)
+                else:
+                    target = (X.INDEX, index)
+                    const = False
+            if toks[k] != "=":
+                raise _Fallback
+            value, k = _tvalue(toks, k + 1)
+            if type(value) is not float:
+                const = False
+            block.assign.append((target, value))
+            continue
+        first = t[0]
+        if first not in _WORD_LETTERS:
+            raise _Fallback
+        if len(t) > 1:
+            if t[1:] not in _FUNCTIONS or first in "A":
+                raise _Fallback  # e.g. ACOS[..] after an A word: the character parser decides
+            toks[k] = t[1:]
+            value, k = _tvalue(toks, k)
+        else:
+            value, k = _tvalue(toks, k + 1)
+        if type(value) is not float:
+            const = False
+        if first == "G":
+            block.g.append(value)
+        elif first == "M":
+            block.m.append(value)
+        elif first in words:
+            raise _Fallback
+        else:
+            words[first] = value
+    block.const = const
+    return block
+
+
+def _tvalue(toks: list, k: int):
+    """A value starting at token k: (value, next k)."""
+    t = toks[k]
+    c = t[0]
+    if "0" <= c <= "9" or c == ".":
+        return float(t), k + 1
+    if t == "[":
+        return _texpression(toks, k)
+    if t == "#":
+        nxt = toks[k + 1]
+        if nxt[0] == "<":
+            name = nxt[1:-1].lower()
+            if not name:
+                raise _Fallback
+            return (X.NAMED, name), k + 2
+        index, k = _tvalue(toks, k + 1)
+        return ((X.PARAM, X.param_index(index)) if type(index) is float else (X.PARAM, index)), k
+    if t == "-" or t == "+":
+        if toks[k + 1] in ("-", "+"):
+            raise _Fallback
+        value, k = _tvalue(toks, k + 1)
+        if t == "+":
+            return value, k
+        return (-value if type(value) is float else (X.NEG, value)), k
+    if t in _FUNCTIONS:
+        if toks[k + 1] != "[":
+            raise _Fallback
+        arg, k = _texpression(toks, k + 1)
+        if t == "EXISTS":
+            if not (isinstance(arg, tuple) and arg[0] == X.NAMED):
+                raise _Fallback
+            return (X.EXISTS, arg[1]), k
+        if t == "ATAN":
+            if toks[k] != "/" or toks[k + 1] != "[":
+                raise _Fallback
+            arg2, k = _texpression(toks, k + 1)
+            return X.fold_atan(arg, arg2), k
+        return X.fold_function(t, arg), k
+    raise _Fallback
+
+
+def _texpression(toks: list, k: int):
+    """``[ ... ]`` from token k ('['): operators by precedence, left to right within a level."""
+    value, k = _tvalue(toks, k + 1)
+    t = toks[k]
+    if t == "]":
+        return value, k + 1
+    values = [value]
+    ops: list = []
+    fold = X.fold_binary
+    while t != "]":
+        entry = _OPS.get(t)
+        if entry is None:
+            if t[0] < "A" or t[0] > "Z":
+                raise _Fallback
+            # An operator word run together with a function after it (e.g. "ANDSIN").
+            for word in _OPERATOR_WORDS:
+                if t.startswith(word) and t[len(word):] in _FUNCTIONS:
+                    entry = _OPS[word]
+                    toks[k] = t[len(word):]
+                    k -= 1
+                    break
+            else:
+                raise _Fallback
+        prec = entry[0]
+        while ops and ops[-1][0] >= prec:
+            op = ops.pop()[1]
+            rhs = values.pop()
+            values[-1] = fold(op, values[-1], rhs)
+        ops.append(entry)
+        value, k = _tvalue(toks, k + 1)
+        values.append(value)
+        t = toks[k]
+    while ops:
+        op = ops.pop()[1]
+        rhs = values.pop()
+        values[-1] = fold(op, values[-1], rhs)
+    return values[0], k + 1
 
 
 def _add_word(block: Block, words: dict, letter: str, value) -> None:
@@ -313,6 +470,18 @@ def _parse_oword(code: str, i: int, block: Block) -> None:
     keyword = m.group().lower()
     i = m.end()
     args = []
+    if i < len(code):
+        try:
+            toks = _TOKEN.findall(code, i)
+            k = 0
+            while k < len(toks):
+                if toks[k] != "[" and keyword != "call":
+                    raise _Fallback
+                value, k = _tvalue(toks, k)
+                args.append(value)
+            i = len(code)
+        except (_Fallback, IndexError, KeyError, ValueError):
+            args = []
     while i < len(code):
         if code[i] != "[" and keyword != "call":
             raise LexError(f"unexpected {code[i:i + 8]!r} after 'o... {keyword}'")

@@ -36,7 +36,7 @@ def quote(text: str, limit: int = 60) -> str:
 class Source:
     """One file of a program: name (for messages), lines, the first and past-the-last line read."""
 
-    __slots__ = ("name", "index", "lines", "first", "end", "_owords", "cache")
+    __slots__ = ("name", "index", "lines", "first", "end", "_owords", "cache", "runs", "tokens", "scans")
 
     def __init__(self, name: str, index: int, text: str):
         self.name = name
@@ -60,6 +60,25 @@ class Source:
                 break
         self._owords: dict | None = None
         self.cache: dict[int, Block | None] = {}
+        self.runs = None  # for each line, where its run of plain lines ends (fastpath)
+        self.tokens = None  # the last run fastpath read: (first, stop, its words)
+        self.scans: dict = {}  # where O-word searches ended (interp._scan)
+
+    def plain_run_ends(self) -> list[int]:
+        """For each line, where the run of plain lines starting there ends (the line itself when it is
+        not plain); see ``fastpath``."""
+        if self.runs is None:
+            import numpy as np
+
+            from flowmc.motion.gcode.fastpath import plain_lines
+
+            plain, clean = plain_lines(self.lines)
+            plain[self.end:] = False
+            breaks = np.append(np.flatnonzero(~plain), len(self.lines))
+            index = np.arange(len(self.lines))
+            ends = np.where(plain, breaks[np.searchsorted(breaks, index)], index)
+            self.runs = (ends.tolist(), clean)
+        return self.runs[0]
 
     def where(self, line: int) -> str:
         return f"{self.name}:{line + 1}"
@@ -120,13 +139,15 @@ def load_text(text: str, name: str, index: int) -> Source:
 
 
 def subroutine_file(name: str, folders) -> FsPath | None:
-    """``<name>.ngc`` in the first folder that has it (LinuxCNC: lower-case names, digits, '-', '_')."""
+    """``<name>.ngc`` in the first folder that has it (LinuxCNC: lower-case names, digits, '-', '_');
+    a link that leads out of its folder does not count."""
     if not _SUB_NAME.fullmatch(name):
         return None
     for folder in folders:
-        candidate = FsPath(folder) / f"{name}.ngc"
+        root = FsPath(folder).resolve()
+        candidate = (root / f"{name}.ngc").resolve()
         try:
-            if candidate.is_file():
+            if candidate.is_relative_to(root) and candidate.is_file():
                 return candidate
         except OSError:
             continue
