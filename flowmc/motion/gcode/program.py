@@ -13,7 +13,7 @@ import re
 import stat
 from pathlib import Path as FsPath
 
-from flowmc.errors import GcodeError
+from flowmc.errors import GcodeError, printable
 from flowmc.motion.gcode.lexer import Block, LexError, parse_line, split_comments
 
 __all__ = ["Source", "load_text", "read_program_file", "quote"]
@@ -27,10 +27,7 @@ _SUB_NAME = re.compile(r"[a-z0-9_\-]+")
 def quote(text: str, limit: int = 60) -> str:
     """A line as shown in messages: stripped, shortened, control characters (terminal escapes) shown
     as ``\\xNN`` so a message can never drive a terminal."""
-    text = text.strip()
-    if len(text) > limit:
-        text = text[:limit - 3] + "..."
-    return "".join(c if (c.isprintable() or c == " ") else ascii(c)[1:-1] for c in text)
+    return printable(text.strip(), limit)
 
 
 class Source:
