@@ -5,7 +5,12 @@ from __future__ import annotations
 import math
 
 __all__ = ["G_GROUP", "M_GROUP", "G_GROUP_NAMES", "M_GROUP_NAMES", "g_refusal", "m_refusal", "code_name",
-           "AXIS_USERS", "CYCLES"]
+           "AXIS_USERS", "CYCLES", "InterpError"]
+
+
+class InterpError(Exception):
+    """An error on the current line; the interpreter adds file and line."""
+
 
 # G groups (LinuxCNC's numbers).
 NONMODAL, MOTION, PLANE, DISTANCE, ARC_DISTANCE, FEED_MODE, UNITS, COMP, LENGTH, RETRACT, COORD, PATH, \

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 
 from flowmc.motion.gcode.arcs import ArcError, centre_ijk, centre_r
-from flowmc.motion.gcode.interp import InterpError
+from flowmc.motion.gcode.codes import InterpError
 
 __all__ = ["CutterComp"]
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from flowmc.motion.gcode.interp import InterpError
+from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.path import PLANES, PathEvent
 
 __all__ = ["run_cycle"]

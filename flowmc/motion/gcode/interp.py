@@ -21,10 +21,11 @@ import re
 from dataclasses import dataclass, field
 
 from flowmc.errors import GcodeError
-from flowmc.motion.gcode import codes as C
-from flowmc.motion.gcode import expr as X
+import flowmc.motion.gcode.codes as C
+import flowmc.motion.gcode.expr as X
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, ArcError, centre_ijk, centre_r
 from flowmc.motion.gcode.canon import Canon
+from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.gcode.expr import EvalError, compile_value, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.params import _COMPUTED, Parameters
@@ -41,10 +42,6 @@ _UV = {k: PLANES[k][1] for k in PLANES}
 _ACTIVE_COMMENT = re.compile(r"\s*(MSG|DEBUG|PRINT|LOGOPEN|LOGAPPEND|LOGCLOSE|LOG|PROBEOPEN|PROBECLOSE)\s*(,|$)",
                              re.IGNORECASE)
 _COMMENT_PARAM = re.compile(r"#<([^>]*)>|#(\d+)")
-
-
-class InterpError(Exception):
-    """An error on the current line; the interpreter adds file and line."""
 
 
 @dataclass(frozen=True)

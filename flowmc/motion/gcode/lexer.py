@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import re
 
-from flowmc.motion.gcode import expr as X
+import flowmc.motion.gcode.expr as X
 
 __all__ = ["Block", "LexError", "parse_line", "split_comments"]
 
