@@ -1,4 +1,4 @@
-"""The ``flowmc`` command: run graphs headless, validate them, list node types, print the schema.
+"""The ``flowmc`` command: run graphs headless, validate them, list node types, print the schema, sweep.
 
 Exit codes: 0 success, 1 the run failed (or a tool is missing), 2 the graph or an argument is invalid.
 Every problem is one line on stderr; no tracebacks (set FLOWMC_DEBUG=1 to see them).
@@ -17,14 +17,11 @@ from pathlib import Path
 from typing import Any, Callable
 
 from flowmc.errors import FlowmcError, GraphError
+from flowmc.settings import UsageError, input_target, param_target
 
 __all__ = ["main", "build_parser"]
 
 EXIT_OK, EXIT_FAILED, EXIT_INVALID = 0, 1, 2
-
-
-class UsageError(FlowmcError):
-    """A bad command-line argument (exit 2)."""
 
 
 def _err(line: str) -> None:
@@ -32,31 +29,6 @@ def _err(line: str) -> None:
 
 
 # ---------------------------------------------------------------- values from the command line
-
-def parse_value(port_type: str | None, text: str, what: str) -> Any:
-    """Turn command-line text into a value for a port type (None: any JSON, else the text)."""
-    if port_type == "Text":
-        return text
-    if port_type == "Number":
-        try:
-            value = float(text)
-        except ValueError:
-            raise UsageError(f"{what}: {text!r} is not a number") from None
-        return int(value) if value.is_integer() and "." not in text and "e" not in text.lower() else value
-    if port_type == "Bool":
-        lowered = text.strip().lower()
-        if lowered in ("true", "1", "yes", "on"):
-            return True
-        if lowered in ("false", "0", "no", "off"):
-            return False
-        raise UsageError(f"{what}: {text!r} is not true or false")
-    if port_type is not None:
-        raise UsageError(f"{what}: a {port_type} cannot be given on the command line")
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
 
 def _split_assignment(item: str, option: str) -> tuple[str, str]:
     key, sep, value = item.partition("=")
@@ -67,50 +39,22 @@ def _split_assignment(item: str, option: str) -> tuple[str, str]:
 
 def apply_sets(graph: Any, sets: list[str]) -> None:
     """``--set NODE.PARAM=VALUE``: change stored params; unknown nodes or params are errors."""
-    from flowmc import registry
-    from flowmc.nodes import load_all
-
-    load_all()
     for item in sets:
-        target, text = _split_assignment(item, "--set")
-        node_id, dot, param = target.partition(".")
-        what = f"--set {target}"
-        if not dot or not param:
+        name, text = _split_assignment(item, "--set")
+        what = f"--set {name}"
+        if "." not in name:
             raise UsageError(f"{what}: expected NODE.PARAM=VALUE")
-        node = next((n for n in graph.nodes if n.id == node_id), None)
-        if node is None:
-            raise UsageError(f"{what}: no node {node_id!r} (nodes: {', '.join(sorted(n.id for n in graph.nodes))})")
-        try:
-            cls = registry.lookup(node.type, graph.base_dir)
-        except GraphError:
-            raise UsageError(f"{what}: node {node_id!r} has unknown type {node.type!r}") from None
-        fields = cls.Params.model_fields
-        if param not in fields:
-            raise UsageError(f"{what}: node {node_id!r} ({node.type}) has no param {param!r} (params: {', '.join(fields) or 'none'})")
-        _refuse_fed_param(graph, target, what)
-        port_types = {p.name: p.types[0] for p in cls.param_ports()}
-        node.params[param] = parse_value(port_types.get(param), text, what)
-
-
-def _refuse_fed_param(graph: Any, target: str, what: str) -> None:
-    """A stored param that a wire or an interface input feeds would be overridden: say so, not ignore it."""
-    feeding = next((w.from_ for w in graph.wires if w.to == target), None)
-    if feeding is not None:
-        raise UsageError(f"{what}: that param is fed by the wire from {feeding}; the stored value is not used")
-    for inp in graph.interface.inputs if graph.interface else ():
-        if target in inp.to:
-            raise UsageError(f"{what}: that param is fed by the graph input {inp.name!r}; "
-                             f"use --input {inp.name}=VALUE")
+        target = param_target(graph, name, what)
+        target.apply(graph, target.parse(text, what), {})
 
 
 def parse_inputs(graph: Any, items: list[str]) -> dict[str, Any]:
-    declared = {i.name: i.type for i in graph.interface.inputs} if graph.interface else {}
-    values = {}
+    values: dict[str, Any] = {}
     for item in items:
         name, text = _split_assignment(item, "--input")
-        if name not in declared:
-            raise UsageError(f"--input {name}: the graph has no input {name!r} (inputs: {', '.join(declared) or 'none'})")
-        values[name] = parse_value(declared[name], text, f"--input {name}")
+        what = f"--input {name}"
+        target = input_target(graph, name, what)
+        target.apply(graph, target.parse(text, what), values)
     return values
 
 
@@ -295,6 +239,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--with", dest="with_", choices=["linuxcnc"], default="linuxcnc",
                    help="reference to compare with (args.with_, also getattr(args, 'with'))")
     p.set_defaults(func=_delegate("flowmc.devices.linuxcnc.compare", "compare_main", "the LinuxCNC comparison"))
+
+    from flowmc.sweep.options import add_arguments as sweep_arguments
+
+    p = sub.add_parser("sweep", help="run a graph over many settings (a grid, a table, a folder of files) in parallel")
+    sweep_arguments(p)
+    p.set_defaults(func=_delegate("flowmc.sweep.command", "sweep_main", "sweeps"))
     return parser
 
 
