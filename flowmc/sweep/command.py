@@ -62,6 +62,8 @@ def sweep_main(args: Any) -> int:
         axes.append(table_axis(graph, args.table))
     if not axes:
         raise UsageError("say what to sweep: --grid TARGET=VALUES, --over TARGET=PATTERN or --table FILE")
+    if args.scheduler and args.executor != "dask":
+        raise UsageError("--scheduler goes with --executor dask")
     for option in ("workers", "batch"):
         if getattr(args, option) is not None and getattr(args, option) < 1:
             raise UsageError(f"--{option} must be at least 1")

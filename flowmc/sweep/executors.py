@@ -11,10 +11,12 @@ LinuxCNC instances never meet on a host.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import logging
 import multiprocessing
 import os
 import signal
+import threading
 import uuid
 from typing import Any, Iterator
 
@@ -88,6 +90,19 @@ class LocalExecutor:
 
 # ---------------------------------------------------------------- Dask
 
+@contextlib.contextmanager
+def _ctrl_c_ignored() -> Iterator[None]:
+    """Ignore SIGINT while worker processes start (from the main thread only; elsewhere a no-op)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 async def _grant(resource: str, dask_worker: Any = None) -> None:
     await dask_worker.set_resources(**{resource: 1})
 
@@ -110,9 +125,10 @@ class DaskExecutor:
             if address:
                 self.client = distributed.Client(address, timeout="30s")
             else:
-                self.cluster = distributed.LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                                                        processes=True, dashboard_address=None,
-                                                        silence_logs=logging.ERROR)
+                with _ctrl_c_ignored():  # the workers inherit it: Ctrl-C is the parent's to handle
+                    self.cluster = distributed.LocalCluster(n_workers=workers or default_workers(),
+                                                            threads_per_worker=1, processes=True,
+                                                            dashboard_address=None, silence_logs=logging.ERROR)
                 self.client = distributed.Client(self.cluster)
         except (OSError, TimeoutError) as exc:
             if self.cluster is not None:
@@ -163,9 +179,11 @@ class DaskExecutor:
                 yield batch, exc
 
     def close(self) -> None:
+        """Closing the client releases its tasks on the scheduler (those running finish, unseen)."""
+        self._futures = {}
+        if self.cluster is not None:  # our own cluster: its shutdown chatter (released tasks) is not news
+            logging.getLogger("distributed").setLevel(logging.CRITICAL + 1)
         try:
-            if self._futures:
-                self.client.cancel(list(self._futures))
             self.client.close()
         finally:
             if self.cluster is not None:
@@ -181,8 +199,6 @@ class DaskExecutor:
 def open_executor(kind: str, job: Job, *, workers: int | None = None, address: str | None = None,
                   resources: tuple[str, ...] = ()) -> LocalExecutor | DaskExecutor:
     if kind == "local":
-        if address:
-            raise FlowmcError("--scheduler goes with --executor dask")
         return LocalExecutor(job, workers, resources)
     if kind == "dask":
         return DaskExecutor(job, workers, address, resources)

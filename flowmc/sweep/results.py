@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from flowmc.errors import FlowmcError
+from flowmc.settings import UsageError
 
 __all__ = ["FIXED_COLUMNS", "Journal", "flatten_outputs", "table", "write_tables", "write_atomic"]
 
@@ -139,8 +140,8 @@ class Journal:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise FlowmcError(f"cannot make the results folder: {exc.strerror or exc}", where=str(folder)) from None
-        if self.path.exists() and not (resume or overwrite):
-            raise FlowmcError("holds the rows of an earlier sweep: --resume to skip the variants done, "
+        if self.path.exists() and self.path.stat().st_size and not (resume or overwrite):
+            raise UsageError("holds the rows of an earlier sweep: --resume to skip the variants done, "
                               "--overwrite to start again, or choose another --out", where=str(folder))
         if resume and self.path.exists():
             self.rows = self._read()

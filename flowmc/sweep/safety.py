@@ -111,7 +111,8 @@ class SafetyPlan:
 
 def check_devices(uses: list[DeviceUse], swept: dict[str, Iterable[Any]], policy: str) -> SafetyPlan:
     """Refuse (UsageError naming the node) or plan the sweep's device nodes. ``swept``: the values each swept
-    setting takes, so a device chosen by an axis is checked for every value it takes."""
+    setting takes (None: a variant that leaves it as the graph has it), so a device chosen by an axis is
+    checked for every value it takes."""
     if policy not in POLICIES:
         raise UsageError(f"--devices {policy!r}: choose {' or '.join(POLICIES)}")
     to_sim: list[str] = []
@@ -121,7 +122,10 @@ def check_devices(uses: list[DeviceUse], swept: dict[str, Iterable[Any]], policy
         if use.spec is None:
             raise UsageError(f"node {use.where!r}: its device is fed by a wire, so a sweep cannot know whether "
                              "it moves hardware; store the device in the node (or give it as an input)")
-        specs = {use.spec} | {str(v).strip() for v in swept.get(use.source or "", ())}
+        given = list(swept.get(use.source or "", ()))
+        specs = {str(v).strip() for v in given if v is not None}
+        if not given or None in given:  # some variants keep the graph's own device
+            specs.add(use.spec)
         hardware = sorted(s for s in specs if _hardware(s))
         if hardware and policy == "refuse":
             raise UsageError(f"node {use.where!r}: device {hardware[0]!r} moves hardware, and a sweep never "

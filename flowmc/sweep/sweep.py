@@ -29,16 +29,20 @@ __all__ = ["Sweep", "Progress", "Outcome"]
 
 @dataclass(frozen=True)
 class Progress:
+    """Counts over the whole sweep (``resumed``: rows an earlier run left, counted in done/failed too)."""
+
     total: int
     done: int
     failed: int
     left: int
     elapsed: float
+    resumed: int = 0
 
     @property
     def rate(self) -> float:
-        """Variants finished per second in this run (resumed ones not counted)."""
-        return (self.done + self.failed) / self.elapsed if self.elapsed > 0 else 0.0
+        """Variants finished per second in this run."""
+        finished = self.done + self.failed - self.resumed
+        return finished / self.elapsed if self.elapsed > 0 and finished > 0 else 0.0
 
 
 @dataclass
@@ -74,7 +78,7 @@ class Sweep:
         swept: dict[str, list[Any]] = {}
         for axis in axes:
             for j, tgt in enumerate(axis.targets):
-                swept[tgt.name] = [row[j] for row in axis.rows if row[j] is not None]
+                swept[tgt.name] = [row[j] for row in axis.rows]
         self.safety = check_devices(device_uses(plan), swept, devices)
         self.order = upstream_first(plan, axes)
         targets = {t.name: t for a in axes for t in a.targets}
@@ -95,6 +99,8 @@ class Sweep:
         finished = journal.finished
         todo = [v for v in self.variants if v.key not in finished]
         skipped = len(self.variants) - len(todo)
+        earlier = [journal.rows[v.key]["status"] for v in self.variants if v.key in finished]
+        done_before = earlier.count("done")
         size = size or batch_size(len(todo), executor.workers)
         work = batches(todo, self.order, size)
         done = failed = lost = 0
@@ -103,8 +109,8 @@ class Sweep:
 
         def report() -> None:
             if on_progress is not None:
-                on_progress(Progress(len(self.variants), skipped + done, failed, len(todo) - done - failed - lost,
-                                     time.perf_counter() - start))
+                on_progress(Progress(len(self.variants), done_before + done, skipped - done_before + failed,
+                                     len(todo) - done - failed - lost, time.perf_counter() - start, skipped))
 
         report()
         try:

@@ -85,7 +85,7 @@ def grid_axis(graph: Any, spec: str) -> Axis:
     tgt = target(graph, name, what)
     values: list[Any] = []
     for item in text.split(","):
-        if tgt.port_type == "Number" and item.count(":") == 2:
+        if tgt.port_type == "Number" and ":" in item:
             values += _numbers(item.strip(), what)
         else:
             values.append(tgt.parse(item.strip() if tgt.port_type != "Text" else item, what))
