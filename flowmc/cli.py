@@ -192,6 +192,16 @@ def cmd_schema(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_serve(args: argparse.Namespace) -> int:
+    """The editor, composed here: the UI gets the node types loaded and one device session to share."""
+    from flowmc.devices.session import DeviceSession
+    from flowmc.nodes import load_all
+    from flowmc.ui.app import serve_main
+
+    load_all()
+    return serve_main(args, devices=DeviceSession())
+
+
 def _delegate(module: str, function: str, what: str) -> Callable[[argparse.Namespace], int]:
     def command(args: argparse.Namespace) -> int:
         try:
@@ -232,7 +242,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", nargs="?", help="graph file to open")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=int, default=8080)
-    p.set_defaults(func=_delegate("flowmc.ui.app", "serve_main", "the editor"))
+    p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("compare", help="compare a graph's motion with a reference implementation")
     p.add_argument("graph")

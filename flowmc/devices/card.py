@@ -106,6 +106,10 @@ class MotionCard(ABC):
     def status(self) -> dict:
         """A small JSON-able dict: position, state, I/O, whatever the device reports."""
 
+    def input_names(self) -> dict[int, str]:
+        """What is wired to digital inputs, by channel (``{9: "X +lim"}``), for status displays; {} when unknown."""
+        return {}
+
     def snapshot(self) -> DeviceLog:
         """The device now, as a one-row log (nothing moves)."""
         pos = self.position()

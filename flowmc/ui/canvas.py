@@ -35,10 +35,10 @@ class Canvas:
     first port clicked while wiring. All edits take ``lock`` (shared with the rest of the editor)."""
 
     def __init__(self, server: viser.ViserServer, state: EditorState, notify: Callable[[str, str], None],
-                 lock: threading.RLock | None = None):
+                 lock: threading.RLock | None = None, status: dict[str, tuple] | None = None):
         self.server, self.state, self.notify = server, state, notify
         self.lock = lock or threading.RLock()
-        self.status: dict[str, tuple[str, float | None, str | None]] = {}
+        self.status: dict[str, tuple[str, float | None, str | None]] = {} if status is None else status
         self.pending: layout.Hit | None = None
         self.boxes: list[layout.NodeBox] = []
         self.curves: dict[tuple[str, str], np.ndarray] = {}

@@ -2,22 +2,21 @@
 
 Each Number, Bool or Text input becomes a slider, number field, checkbox, text field or dropdown,
 chosen from the schema of the params it feeds (bounds, Literal choices). Changing a control calls
-``on_change(values)`` with every input's value; ``rerun_callback`` makes an ``on_change`` that re-runs
-the graph on a runtime (whose cache runs only the affected nodes) and refreshes the 3D view.
+``on_change(values)`` with every input's value; in the editor that queues a run on its session (the
+one way to run: the runtime's cache runs only the affected nodes, and the 3D view hears the result).
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
-import threading
 from dataclasses import dataclass
 from typing import Any, Callable
 
 from flowmc import registry
 from flowmc.errors import FlowmcError
 
-__all__ = ["ControlSpec", "control_specs", "FrontPanel", "rerun_callback"]
+__all__ = ["ControlSpec", "control_specs", "FrontPanel"]
 
 
 @dataclass(frozen=True)
@@ -182,33 +181,11 @@ class FrontPanel:
         except FlowmcError as err:
             self.status.content = f"**Run failed:** {err}"
 
+    def show_result(self, ok: bool, message: str = "") -> None:
+        """What the run a change caused did: nothing shown when it went well, else why not."""
+        self.status.content = "" if ok else f"**Run failed:** {message}"
+
     def remove(self) -> None:
         """Take the panel off the page (to rebuild it for a changed interface)."""
         self.folder.remove()
 
-
-def rerun_callback(runtime: Any, graph: Any, view: Any = None,
-                   on_result: Callable[[Any], Any] | None = None) -> Callable[[dict[str, Any]], None]:
-    """An ``on_change`` that runs ``graph`` (a Graph, or a function returning the current one) with the
-    values as interface inputs, shows the result in ``view`` and passes it to ``on_result``.
-
-    Runs never overlap: changes arriving during a run are merged, and the latest values run next.
-    """
-    lock = threading.Lock()
-    pending: dict[str, dict[str, Any]] = {}
-
-    def on_change(values: dict[str, Any]) -> None:
-        pending["values"] = dict(values)
-        while pending and lock.acquire(blocking=False):
-            try:
-                while pending:
-                    current = graph() if callable(graph) else graph
-                    result = runtime.run(current, inputs=pending.pop("values"))
-                    if view is not None:
-                        view.show_result(result, current)
-                    if on_result is not None:
-                        on_result(result)
-            finally:
-                lock.release()
-
-    return on_change

@@ -20,7 +20,6 @@ import numpy as np
 import viser
 import viser.uplot as uplot
 
-from flowmc.devices.log import DeviceLog
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path, describe_segment
 from flowmc.motion.trajectory import Steps, Trajectory
@@ -63,7 +62,7 @@ class ToolpathView:
         self.nodes: dict[str, Any] = {}
         self.plots: dict[str, Any] = {}
         self.motions: list[data.Motion] = []
-        self.logs: list[DeviceLog] = []
+        self.logs: list[Any] = []  # device logs
         self.motion: data.Motion | None = None
         self.speed_top = 0.0
         self._framed: tuple[np.ndarray, float] | None = None  # (centre, radius) the camera was last set for
@@ -101,7 +100,7 @@ class ToolpathView:
 
     # ------------------------------------------------------------------ showing
     def show(self, paths: Sequence[Path] = (), trajectories: Sequence[Trajectory | Steps] = (),
-             machine: Machine | None = None, logs: Sequence[DeviceLog] = (),
+             machine: Machine | None = None, logs: Sequence[Any] = (),
              names: Sequence[str] | None = None) -> None:
         """Show programmed paths, trajectories/step streams (the last one is followed), the machine's
         travel box and device logs, replacing what was shown."""

@@ -15,6 +15,7 @@ import pytest
 from editor_graphs import example_file
 
 import flowmc
+from flowmc.devices.session import DeviceSession
 from flowmc.ui import layout
 from flowmc.ui.app import Editor
 
@@ -37,7 +38,7 @@ def click(editor, node_id, kind=None, port=None):
 def run(editor):
     editor.run_button.value = True
     result = editor.wait()
-    assert not editor.runner.running
+    assert not editor.session.running
     return result
 
 
@@ -225,10 +226,13 @@ def test_drag_moves_nodes_and_records_one_undo_step(editor):
 
 
 def test_view3d_front_panel_and_device_hooks(tmp_path):
-    ed = Editor(example_file(tmp_path), port=0)
+    devices = DeviceSession()
+    ed = Editor(example_file(tmp_path), port=0, devices=devices)
     try:
         ext = ed.extensions
         assert ext.failures == {}
+        ext.device.connect_button.value = True  # the Device tab drives the editor's one device session
+        assert devices.card is not None and ext.device.card is devices.card
         ed.run()
         assert ed.wait().ok
         deadline = time.time() + 10
@@ -237,6 +241,7 @@ def test_view3d_front_panel_and_device_hooks(tmp_path):
         assert "/path/0" in ext.view.nodes  # the run's path went to the 3D view
     finally:
         ed.close()
+    assert devices.card is None  # closing the editor closed its device session
 
 
 def _serve(args, tmp_path):

@@ -13,12 +13,14 @@ from pydantic import BaseModel, ConfigDict, Field
 import flowmc
 from flowmc import registry
 from flowmc.devices.grbl_sim import GrblSimulator
+from flowmc.devices.session import DeviceSession
 from flowmc.errors import PlanningError
 from flowmc.motion.machine import Machine
 from flowmc.nodes import load_all
 from flowmc.registry import In, NodeType, Out, register
 from flowmc.ui.device_panel import DevicePanel
-from flowmc.ui.front_panel import FrontPanel, control_specs, rerun_callback
+from flowmc.ui.front_panel import FrontPanel, control_specs
+from flowmc.ui.session import EditorSession
 from flowmc.ui.view3d import ToolpathView
 
 load_all()
@@ -128,19 +130,20 @@ def planning_graph() -> flowmc.Graph:
     return g.build()
 
 
-def test_a_change_reruns_only_the_affected_nodes_and_refreshes_the_view(server):
-    graph, runtime, results = planning_graph(), flowmc.Runtime(), []
-    view = ToolpathView()
+def test_a_change_reruns_only_the_affected_nodes_through_the_session_and_refreshes_the_view(server):
+    session, view = EditorSession(planning_graph()), ToolpathView()
+    results = []
+    session.on_result(lambda request: (results.append(request.result), view.show_result(request.result, request.plan.graph)))
     try:
-        panel = FrontPanel(server.gui, graph, rerun_callback(runtime, graph, view, results.append))
-        first = runtime.run(graph, inputs=panel.values())
-        assert first.executed == ["pts", "shift", "plan"]
-        view.show_result(first, graph)
+        panel = FrontPanel(server.gui, session.state.graph, lambda values: session.run(values, source="front panel"))
+        session.inputs_provider = panel.values
+        session.run()
+        assert session.wait().executed == ["pts", "shift", "plan"]
 
         panel.controls["profile"].value = "scurve"
-        assert results[-1].executed == ["plan"] and results[-1].cached == ["pts", "shift"]
+        assert session.wait().executed == ["plan"] and results[-1].cached == ["pts", "shift"]
         panel.controls["offset"].value = 12.5
-        assert results[-1].executed == ["shift", "plan"] and results[-1].cached == ["pts"]
+        assert session.wait().executed == ["shift", "plan"] and results[-1].cached == ["pts"]
 
         traj = results[-1].output("plan", "trajectory")
         np.testing.assert_allclose(view.nodes["/path/0"].points[0, 0], [12.5, 0.0, 0.0])
@@ -148,13 +151,29 @@ def test_a_change_reruns_only_the_affected_nodes_and_refreshes_the_view(server):
         assert view.time_slider.max == pytest.approx(traj.duration)
     finally:
         view.close()
+        session.close()
+
+
+def test_changes_during_a_run_wait_and_only_the_latest_runs(server):
+    """One run at a time: requests made while one runs wait, and a newer one replaces a waiting one."""
+    session = EditorSession(planning_graph())
+    try:
+        first = session.run({"offset": 1.0})
+        assert first.started.wait(10)
+        waiting = [session.run({"offset": float(k)}, source="front panel") for k in range(2, 6)]
+        session.wait()
+        assert first.result is not None
+        assert [r.superseded for r in waiting[:-1]] == [True] * 3 and waiting[-1].result is not None
+        np.testing.assert_allclose(waiting[-1].result.output("shift", "path").start, [5.0, 0.0, 0.0])
+    finally:
+        session.close()
 
 
 # ---------------------------------------------------------------- device panel
 @pytest.fixture
 def device(server):
     logs = []
-    panel = DevicePanel(server.gui, Machine, refresh_s=0.05, on_log=logs.append)
+    panel = DevicePanel(server.gui, DeviceSession(), Machine, refresh_s=0.05, on_log=logs.append)
     panel.connect_button.value = True
     assert panel.card is not None, panel.connection_msg.content
     panel.logs = logs
@@ -208,7 +227,7 @@ def test_reset_clears_the_estop_without_reconnecting(device):
 
 
 def test_reset_that_the_device_refuses_is_shown_and_stays_offered(server):
-    panel = DevicePanel(server.gui, Machine, refresh_s=0.05, device_options={"sim": {"estop_input": 2}})
+    panel = DevicePanel(server.gui, DeviceSession(), Machine, refresh_s=0.05, device_options={"sim": {"estop_input": 2}})
     try:
         panel.connect_button.value = True
         with panel._lock:  # the panel's status poller uses the card too
@@ -264,7 +283,7 @@ def test_status_refreshes_by_itself(device):
 
 
 def test_unknown_device_is_reported_at_the_device_field(server):
-    panel = DevicePanel(server.gui)
+    panel = DevicePanel(server.gui, DeviceSession())
     try:
         panel.spec.value = "plotter9000"
         panel.connect_button.value = True
@@ -278,7 +297,7 @@ def test_unknown_device_is_reported_at_the_device_field(server):
 def test_grbl_through_the_pty_simulator(server):
     sim = GrblSimulator(idle_timeout=20.0, lifetime=60.0)
     port = sim.start()
-    panel = DevicePanel(server.gui, Machine(), refresh_s=0.2)
+    panel = DevicePanel(server.gui, DeviceSession(), Machine(), refresh_s=0.2)
     try:
         panel.spec.value = f"grbl:{port}"
         panel.connect_button.value = True
