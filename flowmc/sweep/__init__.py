@@ -21,6 +21,7 @@ _LAZY = {
     "Axis": "flowmc.sweep.variants",
     "Variant": "flowmc.sweep.variants",
     "grid_axis": "flowmc.sweep.variants",
+    "values_axis": "flowmc.sweep.variants",
     "files_axis": "flowmc.sweep.variants",
     "table_axis": "flowmc.sweep.variants",
     "Journal": "flowmc.sweep.results",

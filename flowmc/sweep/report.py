@@ -112,8 +112,9 @@ def _against(x: str, outputs: tuple[str, ...], shown: list[dict[str, Any]], para
     for row in shown:
         groups.setdefault(f"{by} = {row.get(by)}" if by else "variants", []).append(row)
     numeric_x = all(_finite(r.get(x)) for r in shown)
+    names = [o.removeprefix("out.") for o in outputs]
     fig = make_subplots(rows=len(outputs), cols=1, shared_xaxes=True, vertical_spacing=0.06,
-                        subplot_titles=[o.removeprefix("out.") for o in outputs])
+                        subplot_titles=names if len(names) > 1 else None)
     for k, output in enumerate(outputs, start=1):
         for g, (label, members) in enumerate(groups.items()):
             points = [r for r in members if _finite(r.get(output))]
@@ -128,7 +129,10 @@ def _against(x: str, outputs: tuple[str, ...], shown: list[dict[str, Any]], para
                 text=[_hover(r, params) for r in points], hoverinfo="text+y"), row=k, col=1)
     fig.update_xaxes(title_text=x, row=len(outputs), col=1)
     failed = any(r["status"] != "done" for r in shown)
-    fig.update_layout(title=f"Outputs against {x}" + (" (crosses: variants that failed)" if failed else ""),
+    if len(names) == 1:
+        fig.update_yaxes(title_text=names[0], row=1, col=1)
+    what = names[0] if len(names) == 1 else "Outputs"
+    fig.update_layout(title=f"{what} against {x}" + (" (crosses: variants that failed)" if failed else ""),
                       height=max(340, 240 * len(outputs)), template="plotly_white",
                       margin={"l": 60, "r": 20, "t": 70, "b": 50})
     return fig
@@ -156,9 +160,9 @@ def _pareto(choice: Choice, done: list[dict[str, Any]], params: list[str]) -> tu
                              marker={"color": "#d62728", "size": 10},
                              text=[_hover(r, params) for r in front], hoverinfo="text+x+y"))
     sense = ["higher" if m else "lower" for m in choice.maximize]
-    fig.update_layout(title=f"Pareto front: {a_name.removeprefix('out.')} ({sense[0]} is better) against "
-                            f"{b_name.removeprefix('out.')} ({sense[1]} is better)",
-                      xaxis_title=a_name.removeprefix("out."), yaxis_title=b_name.removeprefix("out."),
+    fig.update_layout(title="Pareto front of the variants done",
+                      xaxis_title=f"{a_name.removeprefix('out.')} ({sense[0]} is better)",
+                      yaxis_title=f"{b_name.removeprefix('out.')} ({sense[1]} is better)",
                       template="plotly_white", height=520, margin={"l": 60, "r": 20, "t": 60, "b": 50})
     return fig, front
 

@@ -22,7 +22,7 @@ from typing import Any, Iterable
 
 from flowmc.settings import Target, UsageError, target
 
-__all__ = ["Axis", "Variant", "grid_axis", "files_axis", "table_axis", "variants", "MAX_VARIANTS"]
+__all__ = ["Axis", "Variant", "grid_axis", "values_axis", "files_axis", "table_axis", "variants", "MAX_VARIANTS"]
 
 MAX_VARIANTS = 1_000_000
 
@@ -76,8 +76,8 @@ def _numbers(text: str, what: str) -> list[float | int]:
 
 
 def grid_axis(graph: Any, spec: str) -> Axis:
-    """``--grid TARGET=V1,V2,...``: comma-separated values; a Number target also takes ranges
-    ``start:stop:step`` among them (``0.01:0.05:0.01,0.1``)."""
+    """``--grid TARGET=V1,V2,...``: comma-separated values (spaces around them dropped); a Number target
+    also takes ranges ``start:stop:step`` among them (``0.01:0.05:0.01,0.1``)."""
     name, sep, text = spec.partition("=")
     what = f"--grid {name.strip()}"
     if not sep or not name.strip():
@@ -88,8 +88,15 @@ def grid_axis(graph: Any, spec: str) -> Axis:
         if tgt.port_type == "Number" and ":" in item:
             values += _numbers(item.strip(), what)
         else:
-            values.append(tgt.parse(item.strip() if tgt.port_type != "Text" else item, what))
+            values.append(tgt.parse(item.strip(), what))
     return Axis((tgt,), tuple((v,) for v in values), what)
+
+
+def values_axis(graph: Any, name: str, values: Iterable[Any]) -> Axis:
+    """An axis of Python values (the editor's controls give them typed) for a setting named as on the
+    command line."""
+    tgt = target(graph, name, name)
+    return Axis((tgt,), tuple((v,) for v in values), name)
 
 
 def files_axis(graph: Any, spec: str, cwd: Path | None = None) -> Axis:
@@ -148,7 +155,7 @@ def table_axis(graph: Any, file: str | os.PathLike, text: str | None = None) -> 
                 continue
             if len(record) != len(targets):
                 raise UsageError(f"{where}:{line}: {len(record)} cells, the header has {len(targets)}")
-            rows.append(tuple(None if cell.strip() == "" else t.parse(cell if t.port_type == "Text" else cell.strip(),
+            rows.append(tuple(None if cell.strip() == "" else t.parse(cell.strip(),
                                                                       f"{where}:{line}: {t.name}")
                               for t, cell in zip(targets, record)))
     except csv.Error as exc:
