@@ -65,13 +65,9 @@ class Target:
             graph.node(self.node).params[self.param] = value
 
 
-def param_target(graph: Any, name: str, what: str) -> Target:
-    """``NODE.PARAM``: a stored param of a node; unknown nodes or params, and params that a wire or an
-    interface input feeds (the stored value would be ignored), are errors."""
-    from flowmc import registry
-    from flowmc.nodes import load_all
-
-    load_all()
+def param_target(graph: Any, name: str, what: str, registry: Any) -> Target:
+    """``NODE.PARAM``: a stored param of a node (its type looked up in ``registry``); unknown nodes or
+    params, and params that a wire or an interface input feeds (the stored value would be ignored), are errors."""
     node_id, dot, param = name.partition(".")
     if not dot or not param:
         raise UsageError(f"{what}: expected NODE.PARAM")
@@ -104,7 +100,7 @@ def input_target(graph: Any, name: str, what: str) -> Target:
     return Target(name, declared[name])
 
 
-def target(graph: Any, name: str, what: str) -> Target:
+def target(graph: Any, name: str, what: str, registry: Any) -> Target:
     """``NODE.PARAM`` (a dot: a stored param) or ``NAME`` (an interface input)."""
     name = name.strip()
-    return param_target(graph, name, what) if "." in name else input_target(graph, name, what)
+    return param_target(graph, name, what, registry) if "." in name else input_target(graph, name, what)

@@ -53,13 +53,15 @@ class _ProgressLine:
             self.bar.close()
 
 
-def sweep_main(args: Any) -> int:
+def sweep_main(args: Any, registry: Any) -> int:
+    """``flowmc sweep``: ``registry`` holds the node types (with ``--nodes`` folders) the graph is checked with."""
     import flowmc
 
     graph = flowmc.load(args.graph)
-    axes = [grid_axis(graph, g) for g in args.grid] + [files_axis(graph, o) for o in args.over]
+    axes = [grid_axis(graph, g, registry=registry) for g in args.grid]
+    axes += [files_axis(graph, o, registry=registry) for o in args.over]
     if args.table:
-        axes.append(table_axis(graph, args.table))
+        axes.append(table_axis(graph, args.table, registry=registry))
     if not axes:
         raise UsageError("say what to sweep: --grid TARGET=VALUES, --over TARGET=PATTERN or --table FILE")
     if args.scheduler and args.executor != "dask":
@@ -70,7 +72,8 @@ def sweep_main(args: Any) -> int:
     folder = Path(args.out) if args.out else Path(Path(args.graph).name.removesuffix(".json").removesuffix(".flowmc")
                                                     + "-sweep")
     ship = args.ship if args.ship is not None else bool(args.scheduler)
-    sweep = Sweep(graph, axes, devices=args.devices, ship=ship, skip=(folder,))
+    sweep = Sweep(graph, axes, devices=args.devices, ship=ship, skip=(folder,), registry=registry,
+                  node_folders=tuple(getattr(args, "nodes", None) or ()))
     for note in sweep.safety.notes:
         print(f"note: {note}", file=sys.stderr)
     journal = Journal(folder, resume=args.resume, overwrite=args.overwrite)

@@ -37,14 +37,22 @@ def default_workers() -> int:
 # ---------------------------------------------------------------- local processes
 
 _process_job: Job | None = None
+_START_TIMEOUT = 120.0
 
 
-def _init_process(job: Job) -> None:
-    """In each worker process: keep the job; leave Ctrl-C to the parent, which stops the sweep cleanly."""
+def _init_process(job: Job, ready: Any) -> None:
+    """In each worker process: keep the job, load the node types, then wait at ``ready`` until every
+    worker has; Ctrl-C is left to the parent, which stops the sweep cleanly."""
     global _process_job
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _process_job = job
     warm_up()
+    ready.wait(_START_TIMEOUT)
+
+
+def _started() -> None:
+    """A task that returns once its process (and so, past the barrier, every process) has started."""
+    return None
 
 
 def _run_local(batch: list[Variant]) -> list[dict[str, Any]]:
@@ -60,9 +68,18 @@ class LocalExecutor:
 
     def __init__(self, job: Job, workers: int | None = None, resources: tuple[str, ...] = ()):
         self.workers = 1 if "linuxcnc" in resources else (workers or default_workers())
-        self._pool = cf.ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                            initializer=_init_process, initargs=(job,))
+        context = multiprocessing.get_context("spawn")
+        self._pool = cf.ProcessPoolExecutor(self.workers, mp_context=context, initializer=_init_process,
+                                            initargs=(job, context.Barrier(self.workers)))
         self._pending: dict[cf.Future, list[Variant]] = {}
+        try:  # start every worker now (the pool starts one per waiting task): start-up is not a variant's time
+            for future in [self._pool.submit(_started) for _ in range(self.workers)]:
+                future.result(timeout=_START_TIMEOUT + 30)
+        except BaseException as exc:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            if isinstance(exc, Exception):
+                raise FlowmcError(f"the worker processes did not start: {type(exc).__name__}: {exc}") from None
+            raise
 
     def describe(self) -> str:
         return f"local, {self.workers} process{'es' if self.workers != 1 else ''}"

@@ -64,12 +64,16 @@ class Outcome:
 class Sweep:
     """``graph`` over ``axes`` with a device policy (``refuse`` or ``sim``, see ``flowmc.sweep.safety``).
     ``ship``: pack the graph's folder for workers that do not share this file system (``skip``: folders
-    left out of the pack, e.g. the results folder)."""
+    left out of the pack, e.g. the results folder). Workers run with the default registry plus
+    ``node_folders`` (``--nodes``; the same paths must exist on them); ``registry`` checks the graph here."""
 
     def __init__(self, graph: Graph, axes: list[Axis], *, devices: str = "refuse", ship: bool = False,
-                 skip: tuple[Path, ...] = ()):
+                 skip: tuple[Path, ...] = (), registry: Any = None, node_folders: tuple[str, ...] = ()):
+        from flowmc.plugins import default_registry
+
         self.graph, self.axes = graph, axes
-        plan = Runtime().plan(graph)
+        registry = registry if registry is not None else default_registry()
+        plan = Runtime(registry).plan(graph)
         if plan.issues:
             raise GraphError(f"{len(plan.issues)} problem{'s' if len(plan.issues) != 1 else ''}", where=graph.where,
                              issues=plan.issues)
@@ -83,10 +87,11 @@ class Sweep:
         self.order = upstream_first(plan, axes)
         targets = {t.name: t for a in axes for t in a.targets}
         for name in self.safety.to_sim:
-            targets.setdefault(name, target(graph, name, f"device {name}"))
+            targets.setdefault(name, target(graph, name, f"device {name}", registry))
         folder = graph.base_dir.resolve()
         self.job = Job(dumps(graph), str(folder), graph.path.name if graph.path is not None else None, targets,
-                       self.safety.to_sim, pack_folder(folder, skip) if ship else None)
+                       self.safety.to_sim, tuple(str(Path(f).resolve()) for f in node_folders),
+                       pack_folder(folder, skip) if ship else None)
 
     @property
     def resources(self) -> tuple[str, ...]:

@@ -2,7 +2,8 @@
 rows, or a folder of input files (``node.file=DIR/*.ngc``); several axes give their product.
 
 A setting's target is a stored param (``node.param``) or an interface input (``name``), with the same
-rules and typing as ``flowmc run --set/--input`` (``flowmc.settings``). A variant's ``key`` hashes the
+rules and typing as ``flowmc run --set/--input`` (``flowmc.settings``); node types are looked up in
+``registry`` (default: the process's default registry). A variant's ``key`` hashes the
 graph and its settings: ``--resume`` skips the keys a results folder already holds.
 """
 
@@ -75,14 +76,22 @@ def _numbers(text: str, what: str) -> list[float | int]:
     return [int(v) for v in values] if whole else [float(f"{v:.12g}") for v in values]
 
 
-def grid_axis(graph: Any, spec: str) -> Axis:
+def _registry(registry: Any) -> Any:
+    if registry is not None:
+        return registry
+    from flowmc.plugins import default_registry
+
+    return default_registry()
+
+
+def grid_axis(graph: Any, spec: str, *, registry: Any = None) -> Axis:
     """``--grid TARGET=V1,V2,...``: comma-separated values (spaces around them dropped); a Number target
     also takes ranges ``start:stop:step`` among them (``0.01:0.05:0.01,0.1``)."""
     name, sep, text = spec.partition("=")
     what = f"--grid {name.strip()}"
     if not sep or not name.strip():
         raise UsageError(f"--grid {spec!r}: expected TARGET=V1,V2,... (TARGET: node.param or an input name)")
-    tgt = target(graph, name, what)
+    tgt = target(graph, name, what, _registry(registry))
     values: list[Any] = []
     for item in text.split(","):
         if tgt.port_type == "Number" and ":" in item:
@@ -92,14 +101,14 @@ def grid_axis(graph: Any, spec: str) -> Axis:
     return Axis((tgt,), tuple((v,) for v in values), what)
 
 
-def values_axis(graph: Any, name: str, values: Iterable[Any]) -> Axis:
+def values_axis(graph: Any, name: str, values: Iterable[Any], *, registry: Any = None) -> Axis:
     """An axis of Python values (the editor's controls give them typed) for a setting named as on the
     command line."""
-    tgt = target(graph, name, name)
+    tgt = target(graph, name, name, _registry(registry))
     return Axis((tgt,), tuple((v,) for v in values), name)
 
 
-def files_axis(graph: Any, spec: str, cwd: Path | None = None) -> Axis:
+def files_axis(graph: Any, spec: str, cwd: Path | None = None, *, registry: Any = None) -> Axis:
     """``--over TARGET=PATTERN``: every file the glob pattern matches (relative to ``cwd``), sorted, each
     given as a path relative to the graph's folder (files outside that folder are refused: graph files
     only read files under their folder)."""
@@ -107,7 +116,7 @@ def files_axis(graph: Any, spec: str, cwd: Path | None = None) -> Axis:
     what = f"--over {name.strip()}"
     if not sep or not name.strip() or not pattern.strip():
         raise UsageError(f"--over {spec!r}: expected TARGET=PATTERN, e.g. gcode.file=programs/*.ngc")
-    tgt = target(graph, name, what)
+    tgt = target(graph, name, what, _registry(registry))
     if tgt.port_type not in ("Text", None):
         raise UsageError(f"{what}: takes file names, but it is a {tgt.port_type}")
     cwd = Path.cwd() if cwd is None else cwd
@@ -127,7 +136,7 @@ def files_axis(graph: Any, spec: str, cwd: Path | None = None) -> Axis:
     return Axis((tgt,), tuple((v,) for v in values), what)
 
 
-def table_axis(graph: Any, file: str | os.PathLike, text: str | None = None) -> Axis:
+def table_axis(graph: Any, file: str | os.PathLike, text: str | None = None, *, registry: Any = None) -> Axis:
     """``--table variants.csv``: a header of targets, then one variant per row; an empty cell leaves that
     target as the graph has it. Errors name ``file:line``."""
     where = str(file)
@@ -146,7 +155,8 @@ def table_axis(graph: Any, file: str | os.PathLike, text: str | None = None) -> 
     names = [h.strip() for h in header]
     if len(set(names)) != len(names) or not all(names):
         raise UsageError(f"{where}:1: the header needs distinct, non-empty targets, got {header}")
-    targets = tuple(target(graph, n, f"{where}:1: column {n!r}") for n in names)
+    reg = _registry(registry)
+    targets = tuple(target(graph, n, f"{where}:1: column {n!r}", reg) for n in names)
     rows = []
     try:
         for record in reader:

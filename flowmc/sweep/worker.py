@@ -44,12 +44,13 @@ class Job:
     graph_name: str | None
     targets: dict[str, Target]
     to_sim: tuple[str, ...] = ()
+    node_folders: tuple[str, ...] = ()
     shipped: bytes | None = field(default=None, repr=False)
 
     @property
     def key(self) -> str:
         h = hashlib.blake2b(self.graph_json.encode(), digest_size=12)
-        h.update(f"\0{self.folder}\0{self.graph_name}\0{self.to_sim}".encode())
+        h.update(f"\0{self.folder}\0{self.graph_name}\0{self.to_sim}\0{self.node_folders}".encode())
         if self.shipped is not None:
             h.update(hashlib.blake2b(self.shipped, digest_size=12).digest())
         return h.hexdigest()
@@ -105,7 +106,7 @@ class _Loaded:
         folder = _unpacked(job) if job.shipped is not None else Path(job.folder)
         self.graph: Graph = loads(job.graph_json, where=job.graph_name or "<graph>")
         self.graph.path = folder / (job.graph_name or "unsaved.flowmc.json")
-        self.runtime = Runtime()
+        self.runtime = Runtime(_registry(job.node_folders))
         wired = {w.from_ for w in self.graph.wires}
         self.loose = [] if self.graph.interface is not None else [
             (n.id, o) for n in self.graph.nodes for o in self._outputs(n.id) if f"{n.id}.{o}" not in wired]
@@ -113,6 +114,22 @@ class _Loaded:
     def _outputs(self, node_id: str) -> list[str]:
         plan = self.runtime.plan(self.graph)
         return list(plan.nodes[node_id].outputs) if node_id in plan.nodes else []
+
+
+_registries: dict[tuple[str, ...], Any] = {}
+_registry_lock = threading.Lock()
+
+
+def _registry(node_folders: tuple[str, ...]) -> Any:
+    """The default registry, or one with the sweep's node folders too (built once per process)."""
+    from flowmc.plugins import build_registry, default_registry
+
+    if not node_folders:
+        return default_registry()
+    with _registry_lock:
+        if node_folders not in _registries:
+            _registries[node_folders] = build_registry(node_folders=node_folders)
+        return _registries[node_folders]
 
 
 _local = threading.local()
@@ -168,10 +185,9 @@ def run_variant(job: Job, loaded: _Loaded, variant: Variant) -> dict[str, Any]:
 
 
 def warm_up() -> None:
-    """Import the node types before the first variant (worker start-up, not a variant's time)."""
-    from flowmc.nodes import load_all
-
-    load_all()
+    """Build the default registry (importing every node module) before the first variant: worker
+    start-up, not a variant's time."""
+    _registry(())
 
 
 def _worker_name() -> str:

@@ -100,7 +100,8 @@ class Extensions:
 
             with self.front_tab:
                 self.front = FrontPanel(gui, self.session.state.graph,
-                                        lambda values: self.editor.run(values, source="front panel"))
+                                        lambda values: self.editor.run(values, source="front panel"),
+                                        self.session.runtime.registry)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a front panel
             self._failed("front panel", exc, self.front_tab)
 

@@ -15,7 +15,6 @@ from typing import Any, Callable
 
 import viser
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
 from flowmc.ui import forms
@@ -124,7 +123,7 @@ class Inspector:
     def _build(self, node_id: str) -> None:
         node = self.state.node(node_id)
         try:
-            cls = registry.lookup(node.type, self.state.base_dir)
+            cls = self.state.runtime.registry.lookup(node.type, self.state.base_dir)
         except GraphError as exc:
             self.gui.add_markdown(f"**{node_id}**: {exc.message}")
             return

@@ -37,7 +37,7 @@ class PalettePanel:
         state, gui = self.host.session.state, self.host.gui
         with self.host.session.lock:
             if reload or not self.items:
-                self.items = palette_items(state.base_dir, exclude=state.path)
+                self.items = palette_items(self.host.session.runtime.registry, state.base_dir, exclude=state.path)
             found = search(self.items, self.search.value)
             self.count.content = f"{len(found)} of {len(self.items)} entries" + (
                 f"; the first {MAX_RESULTS} shown" if len(found) > MAX_RESULTS else "")

@@ -115,7 +115,7 @@ class SweepPanel:
             box.remove()
             text.remove()
         self.controls = {}
-        specs = [s for s in control_specs(graph) if s.kind != "note"]
+        specs = [s for s in control_specs(graph, self.session.runtime.registry) if s.kind != "note"]
         self.empty.visible = not specs
         with self.controls_folder:
             for k, spec in enumerate(specs):
@@ -142,18 +142,19 @@ class SweepPanel:
             graph = state.graph.model_copy(deep=True)
             graph.path = state.path if state.path is not None else state.folder / state.suggested_name
             fixed = self.session.inputs_provider()
+        registry = self.session.runtime.registry
         axes, swept = [], []
         for name, (box, text) in self.controls.items():
             if box.value:
-                axes.append(grid_axis(graph, f"{name}={text.value}"))
+                axes.append(grid_axis(graph, f"{name}={text.value}", registry=registry))
                 swept.append(name)
             elif name in fixed:
-                axes.append(values_axis(graph, name, [fixed[name]]))
+                axes.append(values_axis(graph, name, [fixed[name]], registry=registry))
         if not swept:
             raise FlowmcError("tick at least one control to sweep")
         self.folder = (graph.base_dir / f"{graph.path.name.removesuffix('.json').removesuffix('.flowmc')}-sweep"
                        if state.path is not None else Path(tempfile.mkdtemp(prefix="flowmc-sweep-")))
-        return Sweep(graph, axes, devices=self.devices.value, skip=(self.folder,)), swept
+        return Sweep(graph, axes, devices=self.devices.value, skip=(self.folder,), registry=registry), swept
 
     def begin(self) -> threading.Thread | None:
         """Start the sweep in a thread of its own (returned); a problem is shown, and nothing runs."""

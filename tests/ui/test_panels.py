@@ -11,19 +11,16 @@ import viser
 from pydantic import BaseModel, ConfigDict, Field
 
 import flowmc
-from flowmc import registry
 from flowmc.devices.grbl_sim import GrblSimulator
 from flowmc.devices.session import DeviceSession
 from flowmc.errors import PlanningError
 from flowmc.motion.machine import Machine
-from flowmc.nodes import load_all
-from flowmc.registry import In, NodeType, Out, register
+from flowmc.plugins import default_registry
+from flowmc.registry import In, NodeType, Out
 from flowmc.ui.device_panel import DevicePanel
 from flowmc.ui.front_panel import FrontPanel, control_specs
 from flowmc.ui.session import EditorSession
 from flowmc.ui.view3d import ToolpathView
-
-load_all()
 
 
 @pytest.fixture
@@ -45,37 +42,43 @@ class KnobParams(BaseModel):
     limit: float | None = Field(None, gt=0, description="Optional limit (empty: none)")
 
 
+class Knobs(NodeType):
+    type_id = "test.knobs"
+    title = "Knobs"
+    category = "Test"
+    description = "Params of every kind, for the front panel."
+    Params = KnobParams
+    inputs = (In("path", "Path", default=None, doc="Unused path"),)
+    outputs = (Out("value", "Number", doc="gain * count"),)
+
+    def run(self, ctx, params, path=None):
+        return {"value": params.gain * params.count}
+
+
+@pytest.fixture
+def registry():
+    reg = default_registry().copy()
+    reg.add(Knobs)
+    return reg
+
+
 @pytest.fixture
 def knob_graph():
-    with registry.scoped():
-        @register
-        class Knobs(NodeType):
-            type_id = "test.knobs"
-            title = "Knobs"
-            category = "Test"
-            description = "Params of every kind, for the front panel."
-            Params = KnobParams
-            inputs = (In("path", "Path", default=None, doc="Unused path"),)
-            outputs = (Out("value", "Number", doc="gain * count"),)
-
-            def run(self, ctx, params, path=None):
-                return {"value": params.gain * params.count}
-
-        g = flowmc.GraphBuilder(title="knobs")
-        k = g.add("test.knobs", id="k", gain=2.0)
-        for name, kind in (("gain", "Number"), ("count", "Number"), ("rate", "Number"), ("mode", "Text"),
-                           ("on", "Bool"), ("label", "Text"), ("limit", "Number"), ("path", "Path")):
-            g.input(name, kind, k[name])
-        g.output("value", "Number", k.value)
-        yield g.build()
+    g = flowmc.GraphBuilder(title="knobs")
+    k = g.add("test.knobs", id="k", gain=2.0)
+    for name, kind in (("gain", "Number"), ("count", "Number"), ("rate", "Number"), ("mode", "Text"),
+                       ("on", "Bool"), ("label", "Text"), ("limit", "Number"), ("path", "Path")):
+        g.input(name, kind, k[name])
+    g.output("value", "Number", k.value)
+    return g.build()
 
 
-def test_controls_follow_the_param_schema(server, knob_graph):
-    specs = {s.name: s for s in control_specs(knob_graph)}
+def test_controls_follow_the_param_schema(server, knob_graph, registry):
+    specs = {s.name: s for s in control_specs(knob_graph, registry)}
     assert {n: s.kind for n, s in specs.items()} == {"gain": "slider", "count": "slider", "rate": "number",
                                                      "mode": "dropdown", "on": "checkbox", "label": "text",
                                                      "limit": "number", "path": "note"}
-    panel = FrontPanel(server.gui, knob_graph, lambda values: None)
+    panel = FrontPanel(server.gui, knob_graph, lambda values: None, registry)
     gain, count = panel.controls["gain"], panel.controls["count"]
     assert (gain.min, gain.max, gain.value) == (0.0, 10.0, 2.0)  # the node's stored value, not the default
     assert (count.min, count.max, count.step, count.value) == (1, 5, 1, 2)
@@ -86,21 +89,21 @@ def test_controls_follow_the_param_schema(server, knob_graph):
     assert panel.values()["limit"] == 4.0
 
 
-def test_a_change_calls_back_with_every_value(server, knob_graph):
+def test_a_change_calls_back_with_every_value(server, knob_graph, registry):
     seen = []
-    panel = FrontPanel(server.gui, knob_graph, seen.append)
+    panel = FrontPanel(server.gui, knob_graph, seen.append, registry)
     panel.controls["gain"].value = 7.5
     panel.controls["mode"].value = "fast"
     panel.controls["on"].value = False
     assert seen[-1] == {"gain": 7.5, "count": 2, "rate": 3.0, "mode": "fast", "on": False, "label": "a"}
     assert len(seen) == 3
-    result = flowmc.Runtime().run(knob_graph, inputs=seen[-1])
+    result = flowmc.Runtime(registry).run(knob_graph, inputs=seen[-1])
     assert result.outputs["value"] == 15.0
 
 
-def test_a_value_out_of_range_is_shown_at_its_field_and_not_run(server, knob_graph):
+def test_a_value_out_of_range_is_shown_at_its_field_and_not_run(server, knob_graph, registry):
     seen = []
-    panel = FrontPanel(server.gui, knob_graph, seen.append)
+    panel = FrontPanel(server.gui, knob_graph, seen.append, registry)
     panel.controls["rate"].value = 0.0
     assert seen == []
     assert panel.messages["rate"].visible and "must be > 0" in panel.messages["rate"].content
@@ -108,11 +111,11 @@ def test_a_value_out_of_range_is_shown_at_its_field_and_not_run(server, knob_gra
     assert not panel.messages["rate"].visible and seen[-1]["rate"] == 0.5
 
 
-def test_a_failed_run_is_shown_in_the_panel(server, knob_graph):
+def test_a_failed_run_is_shown_in_the_panel(server, knob_graph, registry):
     def fail(values):
         raise PlanningError("feed too high for this arc", where="plan")
 
-    panel = FrontPanel(server.gui, knob_graph, fail)
+    panel = FrontPanel(server.gui, knob_graph, fail, registry)
     panel.controls["gain"].value = 3.0
     assert panel.status.content == "**Run failed:** plan: feed too high for this arc"
 
@@ -135,7 +138,8 @@ def test_a_change_reruns_only_the_affected_nodes_through_the_session_and_refresh
     results = []
     session.on_result(lambda request: (results.append(request.result), view.show_result(request.result, request.plan.graph)))
     try:
-        panel = FrontPanel(server.gui, session.state.graph, lambda values: session.run(values, source="front panel"))
+        panel = FrontPanel(server.gui, session.state.graph, lambda values: session.run(values, source="front panel"),
+                          session.runtime.registry)
         session.inputs_provider = panel.values
         session.run()
         assert session.wait().executed == ["pts", "shift", "plan"]

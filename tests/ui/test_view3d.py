@@ -12,11 +12,9 @@ import flowmc
 from flowmc.devices.sim import SimCard
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
-from flowmc.nodes import load_all
 from flowmc.ui import view3d_data as data
 from flowmc.ui.view3d import ToolpathView, embed_html
 
-load_all()
 
 ROWS = [
     {"type": "line", "end": [30.0, 0.0, 0.0]},
