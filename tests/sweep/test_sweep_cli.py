@@ -35,7 +35,7 @@ def test_a_sweep_writes_csv_parquet_and_a_report(tmp_path):
     assert float(rows[2]["out.cycle_time"]) == pytest.approx(5.876, abs=0.01)
     assert pq.read_table(out / "rows.parquet").to_pylist()[0]["out.cycle_time"] == float(rows[0]["out.cycle_time"])
     report = (out / "report.html").read_text()
-    assert "Pareto front" in report and "Outputs against gcode.file" in report and "Plotly.newPlot" in report
+    assert "Pareto front" in report and "cycle_time against gcode.file" in report and "Plotly.newPlot" in report
     assert "6 variants: 4 done, 2 failed" in proc.stdout
     assert "variant 2 failed: node 'check'" in proc.stderr
     again = run_cli("sweep", graph, "--over", "gcode.file=programs/*.ngc", cwd=tmp_path)
