@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from flowmc.errors import FlowmcError
+from flowmc.ui.text import md, plain
 
 __all__ = ["ControlSpec", "control_specs", "FrontPanel"]
 
@@ -142,9 +143,9 @@ class FrontPanel:
             self.status = gui.add_markdown("")
 
     def _add(self, spec: ControlSpec) -> None:
-        gui, hint = self.gui, spec.hint or None
+        gui, hint = self.gui, plain(spec.hint) if spec.hint else None
         if spec.kind == "note":
-            gui.add_markdown(f"`{spec.name}` ({spec.type}): fed by a wire, not set here")
+            gui.add_markdown(md("**{}** ({}): fed by a wire, not set here", spec.name, spec.type))
             return
         if spec.kind == "slider":
             lo = spec.low + (spec.step if spec.low_open else 0.0)
@@ -172,18 +173,18 @@ class FrontPanel:
         self._touched.add(name)
         problem = self.specs[name].problem(self.controls[name].value)
         message = self.messages[name]
-        message.content, message.visible = (f"**{name}** {problem}", True) if problem else ("", False)
+        message.content, message.visible = (md("**{}** {}", name, problem), True) if problem else ("", False)
         if problem:
             return
         try:
             self.on_change(self.values())
             self.status.content = ""
         except FlowmcError as err:
-            self.status.content = f"**Run failed:** {err}"
+            self.status.content = md("**Run failed:** {}", err)
 
     def show_result(self, ok: bool, message: str = "") -> None:
         """What the run a change caused did: nothing shown when it went well, else why not."""
-        self.status.content = "" if ok else f"**Run failed:** {message}"
+        self.status.content = "" if ok else md("**Run failed:** {}", message)
 
     def remove(self) -> None:
         """Take the panel off the page (to rebuild it for a changed interface)."""

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import FlowmcError
 from flowmc.ui.front_panel import ControlSpec, control_specs
+from flowmc.ui.text import md, plain
 
 if TYPE_CHECKING:
     from flowmc.ui.session import PanelHost
@@ -119,14 +120,16 @@ class SweepPanel:
         self.empty.visible = not specs
         with self.controls_folder:
             for k, spec in enumerate(specs):
-                box = gui.add_checkbox(spec.name, k == 0, hint=spec.hint or "Sweep this control")
-                text = gui.add_text(f"{spec.name} values", suggested_values(spec), hint="a, b, c or start:stop:step")
+                box = gui.add_checkbox(plain(spec.name), k == 0, hint=plain(spec.hint or "Sweep this control"))
+                text = gui.add_text(plain(f"{spec.name} values"), plain(suggested_values(spec)),
+                                    hint="a, b, c or start:stop:step")
                 self.controls[spec.name] = (box, text)
         numbers = [o.name for o in graph.interface.outputs if o.type == "Number"] if graph.interface else []
         self._set_options(numbers)
 
     def _set_options(self, outputs: list[str]) -> None:
         keep_y, keep_p = self.output.value, self.pareto.value
+        outputs = [plain(o) for o in outputs]
         self.output.options = tuple(outputs) or (_NONE,)
         self.output.value = keep_y if keep_y in outputs else self.output.options[0]
         self.pareto.options = (_NONE, *outputs)
@@ -164,13 +167,13 @@ class SweepPanel:
         try:
             self.sweep, self.swept = self._prepare()
         except FlowmcError as exc:
-            self.status.content = f"**Cannot sweep:** {exc}"
+            self.status.content = md("**Cannot sweep:** {}", exc)
             self.host.notify("error", f"sweep: {exc}")
             return None
         self.stop_event.clear()
         self.start.disabled, self.stop.disabled = True, False
         self.progress.value, self.progress.visible = 0.0, True
-        self.status.content = f"Starting {len(self.sweep.variants)} variants…"
+        self.status.content = md("Starting {} variants…", len(self.sweep.variants))
         self.thread = threading.Thread(target=self._work, name="flowmc-sweep", daemon=True)
         self.thread.start()
         return self.thread
@@ -187,7 +190,7 @@ class SweepPanel:
                                               stop=self.stop_event)
             self._finish()
         except Exception as exc:  # noqa: BLE001 - any failure is shown on the page; the editor goes on
-            self.status.content = f"**Sweep stopped:** {exc}"
+            self.status.content = md("**Sweep stopped:** {}", exc)
             self.host.notify("error", f"sweep: {exc}")
         finally:
             if journal is not None:
@@ -196,8 +199,8 @@ class SweepPanel:
 
     def _show_progress(self, p: Any) -> None:
         self.progress.value = 100.0 * (p.done + p.failed) / max(1, p.total)
-        self.status.content = (f"{p.done} done, {p.failed} failed, {p.left} left"
-                               + (f", {p.rate:.1f} variants/s" if p.rate else ""))
+        self.status.content = md("{} done, {} failed, {} left" + (", {:.1f} variants/s" if p.rate else ""),
+                                 p.done, p.failed, p.left, *([p.rate] if p.rate else []))
 
     def _finish(self) -> None:
         from flowmc.sweep import write_tables
@@ -208,15 +211,15 @@ class SweepPanel:
         numeric = [c.removeprefix("out.") for c in outcome.columns if c.startswith("out.")
                    and any(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool) for r in outcome.rows)]
         self._set_options(numeric)
+        failed = next((r for r in outcome.rows if r["status"] != "done"), None)
+        summary = (("Stopped: " if outcome.interrupted else "") + f"{outcome.done} done, {outcome.failed} failed"
+                   + (f", {outcome.left} not run" if outcome.left else "") + f" in {outcome.elapsed:.1f} s.")
         choice = choose(outcome.columns, outcome.rows, self.sweep.params, outputs=None, against=self.swept)
         write_report(self.folder / "report.html", title=f"Sweep of {self.session.state.graph.title or 'the graph'}",
-                     summary=[self.status.content], choice=choice, rows=outcome.rows, params=self.sweep.params)
-        stopped = "Stopped: " if outcome.interrupted else ""
-        failed = next((r for r in outcome.rows if r["status"] != "done"), None)
-        self.status.content = (f"{stopped}{outcome.done} done, {outcome.failed} failed"
-                               + (f", {outcome.left} not run" if outcome.left else "")
-                               + f" in {outcome.elapsed:.1f} s. Rows and report: `{self.folder}`"
-                               + (f"\n\nFirst failure, variant {failed['variant']}: {failed['error']}" if failed else ""))
+                     summary=[summary], choice=choice, rows=outcome.rows, params=self.sweep.params)
+        self.status.content = (md("{} Rows and report: {}", summary, self.folder)
+                               + (md("\n\nFirst failure, variant {}: {}", failed["variant"], failed["error"])
+                                  if failed else ""))
         self.progress.visible = False
         self.replot()
 
@@ -232,7 +235,7 @@ class SweepPanel:
             choice = choose(outcome.columns, outcome.rows, self.sweep.params, outputs=[self.output.value],
                             against=self.swept, pareto=pareto)
         except FlowmcError as exc:
-            self.status.content = f"**Cannot plot:** {exc}"
+            self.status.content = md("**Cannot plot:** {}", exc)
             return
         figs, _front = figures(choice, outcome.rows, self.sweep.params)
         for handle in self.plots:

@@ -168,6 +168,16 @@ def test_node_context_resolve_stays_inside(registry, tmp_path):
     assert result.errors == [f"node 'bad': '../etc/hosts' leaves the graph's folder {tmp_path.resolve()}"]
 
 
+@pytest.mark.parametrize("file", ["a\x00b.ngc", "\x1b[2J.ngc", "x" * 5000 + ".ngc"], ids=["nul", "escape", "long"])
+def test_unusable_file_names_are_clean_errors(registry, tmp_path, file):
+    g = flowmc.GraphBuilder()
+    g.add("test.read", id="bad", file=file)
+    g.save(tmp_path / "r.flowmc.json")
+    result = flowmc.run(tmp_path / "r.flowmc.json", registry=registry)
+    assert len(result.errors) == 1 and result.errors[0].startswith("node 'bad': '")
+    assert "\x00" not in result.errors[0] and "\x1b" not in result.errors[0] and len(result.errors[0]) < 300
+
+
 def test_missing_or_interface_less_sub_graph(registry, tmp_path):
     flowmc.GraphBuilder().save(tmp_path / "plain.flowmc.json")
     g = flowmc.GraphBuilder()

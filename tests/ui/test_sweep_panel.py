@@ -15,6 +15,7 @@ from flowmc.graph import InterfaceInput
 from flowmc.ui.app import Editor
 from flowmc.ui.front_panel import ControlSpec
 from flowmc.ui.sweep_panel import suggested_values
+from flowmc.ui.text import unescape_md
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -56,7 +57,8 @@ def test_a_sweep_of_a_front_panel_control_runs_and_plots(editor, tmp_path):
     panel.begin().join(180)
     assert [r["status"] for r in panel.outcome.rows] == ["done", "failed", "done"]  # arm_weighted misses 0.68
     assert progress[-1].left == 0 and progress[-1].done == 2
-    assert "2 done, 1 failed" in panel.status.content and "First failure, variant 1" in panel.status.content
+    shown = unescape_md(panel.status.content)
+    assert "2 done, 1 failed" in shown and "First failure, variant 1: node 'check': check failed" in shown
     rows = list(csv.DictReader(open(tmp_path / "arm_lookahead-sweep" / "rows.csv")))
     assert [r["rule"] for r in rows] == ["blend", "arm_weighted", "junction_deviation"]
     assert (tmp_path / "arm_lookahead-sweep" / "report.html").exists()
@@ -74,7 +76,7 @@ def test_unticked_controls_keep_their_front_panel_value(tol_editor):
     editor.extensions.front.controls["rule"].value = "junction_deviation"
     panel.controls["rule"][0].value = False
     panel.begin()
-    assert "tick at least one control" in panel.status.content and panel.thread is None
+    assert "tick at least one control" in unescape_md(panel.status.content) and panel.thread is None
     panel.controls["tol"][0].value = True
     panel.controls["tol"][1].value = "0.02, 0.1"
     panel.begin().join(180)
@@ -94,7 +96,7 @@ def test_stop_keeps_the_rows_done(tol_editor):
     thread.join(120)
     outcome = panel.outcome
     assert outcome.interrupted and 0 < len(outcome.rows) < 300 and outcome.left > 0
-    assert panel.status.content.startswith("Stopped:")
+    assert unescape_md(panel.status.content).startswith("Stopped:")
 
 
 def test_hardware_devices_are_refused_in_the_panel(tmp_path):
@@ -109,7 +111,7 @@ def test_hardware_devices_are_refused_in_the_panel(tmp_path):
     ed = Editor(tmp_path / "card.flowmc.json", port=0)
     try:
         assert ed.sweep_panel.begin() is None
-        assert "node 'card': device 'grbl:/dev/ttyUSB0' moves hardware" in ed.sweep_panel.status.content
+        assert "node 'card': device 'grbl:/dev/ttyUSB0' moves hardware" in unescape_md(ed.sweep_panel.status.content)
     finally:
         ed.close()
 
