@@ -70,7 +70,7 @@ class SweepPanel:
         self.sweep: Any = None
         self.folder: Path | None = None
         self.plots: list[Any] = []
-        gui.add_markdown("Run the graph over values of its front-panel controls (`a, b, c` or `start:stop:step`); "
+        gui.add_markdown("Run the graph over values of its front-panel controls (a, b, c or start:stop:step); "
                          "unticked controls keep their front-panel value.")
         self.controls_folder = gui.add_folder("Controls")
         with self.controls_folder:
