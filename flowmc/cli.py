@@ -258,6 +258,37 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return sweep_main(args, _registry(args))
 
 
+def _sweep_arguments(p: argparse.ArgumentParser) -> None:
+    """``flowmc sweep``'s options (docs/sweeps.md); flowmc.sweep checks the executor and device choices too."""
+    p.add_argument("graph", help="graph file (*.flowmc.json)")
+    what = p.add_argument_group("what to sweep (several axes give their product)")
+    what.add_argument("--grid", action="append", default=[], metavar="TARGET=V1,V2,...",
+                      help="values of a setting: node.param or an interface input name; numbers also as "
+                           "start:stop:step (stop included)")
+    what.add_argument("--over", action="append", default=[], metavar="TARGET=PATTERN",
+                      help="every file a glob pattern matches, e.g. gcode.file=programs/*.ngc")
+    what.add_argument("--table", metavar="variants.csv", help="a CSV table: a header of targets, one variant per row")
+    how = p.add_argument_group("where it runs")
+    how.add_argument("--executor", choices=("local", "dask"), default="local",
+                     help="local: processes on this machine; dask: a Dask LocalCluster, or --scheduler")
+    how.add_argument("--workers", type=int, metavar="N", help="worker processes (default: one per core)")
+    how.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    how.add_argument("--ship", action=argparse.BooleanOptionalAction, default=None,
+                     help="send the graph's folder to the workers (default: only with --scheduler)")
+    how.add_argument("--batch", type=int, metavar="N", help="variants per task (default: about 8 tasks per worker)")
+    how.add_argument("--devices", choices=("refuse", "sim"), default="refuse",
+                     help="device nodes that drive hardware: refuse the sweep (default), or run them on the "
+                          "simulated card")
+    out = p.add_argument_group("results")
+    out.add_argument("--out", metavar="DIR", help="results folder (default: GRAPH-STEM-sweep)")
+    out.add_argument("--resume", action="store_true", help="skip the variants the results folder already holds")
+    out.add_argument("--overwrite", action="store_true", help="start again in a results folder that holds rows")
+    out.add_argument("--plot", metavar="OUT,...", help="outputs to plot (default: the numeric outputs)")
+    out.add_argument("--against", metavar="SETTING,...", help="swept settings on the x axis (default: all)")
+    out.add_argument("--pareto", metavar="A,B", help="two objectives for a Pareto front (minimised; max:NAME maximises)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -298,11 +329,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="corner tolerance: G64 P for LinuxCNC, blend tolerance for flowmc (default: 0.05)")
     p.set_defaults(func=cmd_compare)
 
-    from flowmc.sweep.options import add_arguments as sweep_arguments
-
     p = sub.add_parser("sweep", parents=[plugins],
                        help="run a graph over many settings (a grid, a table, a folder of files) in parallel")
-    sweep_arguments(p)
+    _sweep_arguments(p)
     p.set_defaults(func=cmd_sweep)
     return parser
 

@@ -5,42 +5,16 @@
     with open_executor("dask", sweep.job, workers=2, resources=sweep.resources) as executor:
         outcome = sweep.run(executor, Journal(folder))
 
-Layer 6 of docs/architecture.md: it uses the runtime's public API only and never moves a machine.
-Light to import (``flowmc sweep --help`` loads nothing heavy): names load on first use.
+The sweep layer of docs/architecture.md: it uses the runtime's public API only and never moves a machine
+(docs/sweeps.md).
 """
 
-from __future__ import annotations
+from flowmc.sweep.executors import EXECUTORS, DaskExecutor, LocalExecutor, open_executor
+from flowmc.sweep.results import Journal, flatten_outputs, write_tables
+from flowmc.sweep.safety import POLICIES
+from flowmc.sweep.sweep import Outcome, Progress, Sweep
+from flowmc.sweep.variants import Axis, Variant, files_axis, grid_axis, table_axis, values_axis
 
-import importlib
-from typing import Any
-
-_LAZY = {
-    "Sweep": "flowmc.sweep.sweep",
-    "Progress": "flowmc.sweep.sweep",
-    "Outcome": "flowmc.sweep.sweep",
-    "Axis": "flowmc.sweep.variants",
-    "Variant": "flowmc.sweep.variants",
-    "grid_axis": "flowmc.sweep.variants",
-    "values_axis": "flowmc.sweep.variants",
-    "files_axis": "flowmc.sweep.variants",
-    "table_axis": "flowmc.sweep.variants",
-    "Journal": "flowmc.sweep.results",
-    "flatten_outputs": "flowmc.sweep.results",
-    "write_tables": "flowmc.sweep.results",
-    "open_executor": "flowmc.sweep.executors",
-    "LocalExecutor": "flowmc.sweep.executors",
-    "DaskExecutor": "flowmc.sweep.executors",
-    "EXECUTORS": "flowmc.sweep.options",
-    "POLICIES": "flowmc.sweep.options",
-}
-
-__all__ = list(_LAZY)
-
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'flowmc.sweep' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__all__ = ["Sweep", "Progress", "Outcome", "Axis", "Variant", "grid_axis", "values_axis", "files_axis",
+           "table_axis", "Journal", "flatten_outputs", "write_tables", "open_executor", "LocalExecutor",
+           "DaskExecutor", "EXECUTORS", "POLICIES"]

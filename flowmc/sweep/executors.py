@@ -21,12 +21,12 @@ import uuid
 from typing import Any, Iterator
 
 from flowmc.errors import FlowmcError
-from flowmc.sweep.options import EXECUTORS
 from flowmc.sweep.variants import Variant
 from flowmc.sweep.worker import Job, run_batch, warm_up
 
 __all__ = ["EXECUTORS", "LocalExecutor", "DaskExecutor", "open_executor"]
 
+EXECUTORS = ("local", "dask")
 Finished = tuple[list[Variant], "list[dict[str, Any]] | BaseException"]
 
 

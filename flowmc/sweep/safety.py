@@ -21,10 +21,10 @@ from dataclasses import dataclass
 from typing import Any, Iterable
 
 from flowmc.settings import UsageError
-from flowmc.sweep.options import POLICIES
 
 __all__ = ["POLICIES", "SIMULATORS", "DeviceUse", "device_uses", "SafetyPlan", "check_devices"]
 
+POLICIES = ("refuse", "sim")
 SIMULATORS = {"sim": (), "grbl-sim": (), "linuxcnc": ("linuxcnc",)}  # device name -> host resources it holds
 
 
