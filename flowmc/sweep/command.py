@@ -13,6 +13,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+from flowmc.graph import load
 from flowmc.settings import UsageError
 from flowmc.sweep.executors import open_executor
 from flowmc.sweep.report import choose, write_report
@@ -55,9 +56,7 @@ class _ProgressLine:
 
 def sweep_main(args: Any, registry: Any) -> int:
     """``flowmc sweep``: ``registry`` holds the node types (with ``--nodes`` folders) the graph is checked with."""
-    import flowmc
-
-    graph = flowmc.load(args.graph)
+    graph = load(args.graph)
     axes = [grid_axis(graph, g, registry=registry) for g in args.grid]
     axes += [files_axis(graph, o, registry=registry) for o in args.over]
     if args.table:
