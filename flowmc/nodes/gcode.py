@@ -34,7 +34,7 @@ class GcodeIn(NodeType):
     title = "G-code in"
     category = "Path"
     description = "Read G-code (LinuxCNC's RS274/NGC subset: G0-G4, planes, units, modes, spindle, outputs) as a path."
-    pure = False  # the file may change between runs
+    reads = ("file",)  # cached while the file is unchanged (its size and modification time are in the key)
     Params = GcodeInParams
     outputs = (Out("path", "Path", doc="The program's moves, dwells and tool state, in mm and mm/s"),)
 
