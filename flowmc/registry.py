@@ -72,7 +72,7 @@ class NodeType:
     outputs: ClassVar[tuple[Out, ...]] = ()
     fixed_params: ClassVar[tuple[str, ...]] = ()  # scalar params that cannot be fed by a wire
     host_resources: ClassVar[tuple[str, ...]] = ()  # what a run holds on its host, e.g. "linuxcnc" (one per host)
-    reads: ClassVar[tuple[str, ...]] = ()  # params naming the one file the node reads: cached while it is unchanged
+    reads: ClassVar[tuple[str, ...]] = ()  # params naming every file or folder it reads: cached while they are unchanged
 
     @classmethod
     def ports(cls, params: BaseModel) -> Ports:

@@ -300,16 +300,18 @@ class _Run:
 
 
 def _file_stamps(node: BoundNode, wired: dict[str, Any], site: Site) -> list[tuple[str, str]]:
-    """Size and modification time of the files a node reads (``NodeType.reads``): a pure node that reads
-    a file is cached while the file is unchanged."""
+    """Sizes and modification times of what a node reads (``NodeType.reads``: files, or folders whose files
+    it may read): a pure node that reads files is cached while they are unchanged."""
     stamps = []
     for name in node.cls.reads:
         rel = wired[name] if name in wired else node.raw_params.get(name)
         if not rel:
             continue
         try:
-            stat = resolve_inside(site.root, site.graph_dir, rel).stat()
-            stamps.append((f"file:{name}", f"{stat.st_mtime_ns}:{stat.st_size}"))
+            path = resolve_inside(site.root, site.graph_dir, rel)
+            entries = sorted(os.scandir(path), key=lambda e: e.name) if path.is_dir() else [path]
+            listing = ";".join(f"{getattr(e, 'name', '')}:{e.stat().st_mtime_ns}:{e.stat().st_size}" for e in entries)
+            stamps.append((f"file:{name}", digest(listing)))
         except (FlowmcError, OSError, TypeError):
             stamps.append((f"file:{name}", "unreadable"))  # the node runs, and says what is wrong
     return stamps
