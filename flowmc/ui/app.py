@@ -3,15 +3,16 @@ and the side panel (Run, edit buttons, and tabs for the inspector, the palette, 
 the front panel and the device); the 3D toolpath view runs on a second server shown in a docked
 panel (``extensions``).
 
-The editor edits and runs graphs only through the core's public API: ``EditorState`` holds the
-document, ``Runtime`` validates and runs it (one runtime per editor, so re-runs are cached).
-Every change goes through ``Editor.lock``: viser runs callbacks on a thread pool.
+The editor edits and runs graphs only through the core's public API, by way of its
+``EditorSession`` (document, runtime, run queue, results, device session). Panels get the editor as
+a ``session.PanelHost``. Every change goes through ``session.lock``: viser runs callbacks on a
+thread pool.
 """
 
 from __future__ import annotations
 
+import socket
 import sys
-import threading
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -20,17 +21,16 @@ import viser
 
 from flowmc.errors import FlowmcError
 from flowmc.graph import load
-from flowmc.nodes import load_all
-from flowmc.runtime import Runtime
 from flowmc.ui import viser_internals
 from flowmc.ui.canvas import Canvas
 from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
+from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
-from flowmc.ui.panels import PalettePanel, ProblemsPanel
-from flowmc.ui.runner import Runner
+from flowmc.ui.panels import PalettePanel, ProblemsPanel, free_spot
 from flowmc.ui.selection_panel import SelectionPanel
-from flowmc.ui.state import EditorState
+from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
+from flowmc.ui.text import escape_md, md, plain
 
 __all__ = ["Editor", "serve_main"]
 
@@ -39,37 +39,45 @@ NETWORK_WARNING = ("warning: the editor is listening on {host}: anyone who can r
 
 
 class Editor:
-    """The whole editor on one viser server. ``run_listeners`` get each RunResult (the 3D view is one)."""
+    """The whole editor on one viser server, over an ``EditorSession`` (``session``). It is the
+    ``PanelHost`` its panels get. ``devices`` / ``jobs``: the device session and job runner the
+    application hands in (None: the Device tab says there is none)."""
 
     def __init__(self, path: str | Path | None = None, *, host: str = "127.0.0.1", port: int = 8080,
-                 folder: str | Path | None = None, extensions: bool = True):
-        load_all()
-        self.lock = threading.RLock()
-        self.runtime = Runtime()
+                 folder: str | Path | None = None, extensions: bool = True, devices: DeviceAccess | None = None,
+                 jobs: JobAccess | None = None, guard: Guard | None = None):
         graph = load(path) if path is not None else None
-        self.state = EditorState(graph, folder=folder, runtime=self.runtime)
+        self.session = EditorSession(graph, folder=folder, devices=devices, jobs=jobs)
+        self.lock, self.state = self.session.lock, self.session.state
+        self.session.state.plan()  # bind the graph once before the panels look at node types
         self.host = host
+        self.guard = guard or Guard(host)  # this launch's token; only the editor's own page may connect
         self.messages: list[tuple[str, str]] = []
-        self.run_listeners: list[Callable[[Any], None]] = []
-        self.last_result: Any = None
         self.pending_modal: Any = None
         self._titles: dict[int, str] = {}
-        self.server = viser.ViserServer(host=host, port=port, label="flowmc", verbose=False)
+        self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
+        self.gui = self.server.gui
         self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
         self.server.gui.main_panel.dock_right()
-        self.canvas = Canvas(self.server, self.state, self.notify, self.lock)
+        self.canvas = Canvas(self.server, self.state, self.notify, self.lock, status=self.session.status)
         self._build_gui()
-        self.runner = Runner(self.runtime, self.canvas.status, self.canvas.sync, self._run_finished)
         self.extensions = Extensions(self) if extensions else None
+        self.session.on_progress(self.canvas.sync)
+        self.session.on_result(self._run_finished)
         self.state.subscribe(self._on_state)
         self.server.on_client_connect(self._on_connect)
         self.canvas.sync()
         self._refresh_side()
 
     @property
+    def last_result(self) -> Any:
+        return self.session.last_result
+
+    @property
     def url(self) -> str:
+        """The address to open, with this launch's secret token (without it the server refuses)."""
         host = "127.0.0.1" if self.host in ("0.0.0.0", "", "::") else self.host
-        return f"http://{host}:{self.server.get_port()}"
+        return self.guard.url(host, self.server.get_port())
 
     # ------------------------------------------------------------------ layout
     def _build_gui(self) -> None:
@@ -109,10 +117,10 @@ class Editor:
         """Tell the user: the line under the Run button, and a notification in the browser."""
         self.messages.append((kind, text))
         del self.messages[:-200]
-        self.status_line.content = ("⚠ " if kind == "error" else "") + text
+        self.status_line.content = ("⚠ " if kind == "error" else "") + escape_md(text)
         title = "Problem" if kind == "error" else "flowmc"
         for target in [client] if client is not None else list(self.server.get_clients().values()):
-            target.add_notification(title, text, color="red" if kind == "error" else "blue",
+            target.add_notification(title, plain(text), color="red" if kind == "error" else "blue",
                                     auto_close_seconds=8.0 if kind == "error" else 3.0)
 
     def _on_state(self, kind: str) -> None:
@@ -141,23 +149,22 @@ class Editor:
 
     def _refresh_side(self) -> None:
         self.selection.show()
-        self.problems.show(self.state.issues(), self._run_errors())
+        self.problems.show(self.state.issues(), self.session.run_errors())
         self._refresh_title()
 
-    def _run_errors(self) -> dict[str, str]:
-        result = self.last_result
-        if result is None:
-            return {}
-        ids = {n.id for n in self.state.graph.nodes}
-        return {n: r.error for n, r in result.nodes.items() if r.status == "failed" and n in ids and r.error}
+    def files_changed(self) -> None:
+        """Graph files appeared or changed on disk (a new sub-graph): list them again."""
+        with self.lock:
+            self.palette.refresh()
+            self.files.refresh()
 
     def _refresh_title(self, clients: list[viser.ClientHandle] | None = None) -> None:
         state = self.state
         name = state.path.name if state.path is not None else state.suggested_name + " (not saved)"
         mark = " ●" if state.dirty else ""
         opened_from = " ← ".join(reversed(state.parents))
-        self.header.content = f"### {name}{mark}" + (f"\nopened from {opened_from}" if opened_from else "")
-        title = f"{'● ' if mark else ''}{name} — flowmc"
+        self.header.content = md("### {}{}", name, mark) + (md("\nopened from {}", opened_from) if opened_from else "")
+        title = plain(f"{'● ' if mark else ''}{name} — flowmc", 200)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             if self._titles.get(client.client_id) != title:
                 self._titles[client.client_id] = title
@@ -184,54 +191,67 @@ class Editor:
             if self.state.has_node(node_id):
                 self.state.select(nodes=[node_id])
 
-    def run(self, inputs: dict[str, Any] | None = None) -> threading.Thread | None:
-        """Validate; when the graph can run, run it in a worker thread (returned) and colour the nodes
-        from its events. ``inputs``: interface input values (default: the front panel's)."""
+    def add_node(self, type_id: str, params: dict[str, Any], at: tuple[float, float] | None = None) -> str:
+        """Add a node at the free spot nearest ``at`` (canvas pixels; default the middle of the view), selected."""
         with self.lock:
-            if self.runner.running:
-                self.notify("info", "a run is already going")
+            x, y = free_spot(self.canvas.boxes, at if at is not None else self.canvas.view_centre())
+            node_id = self.state.add_node(type_id, (x, y), params)
+            self.state.select(nodes=[node_id])
+            return node_id
+
+    def confirm(self, title: str, text: str, button: str, action: Callable[[], None], client: Any = None) -> Any:
+        """A dialog with ``button`` (does ``action`` under the lock) and "Keep editing"; returns the modal."""
+        gui = client.gui if client is not None else self.gui
+        with gui.add_modal(title) as modal:
+            gui.add_markdown(text)
+            go_button = gui.add_button(button, color="red")
+            keep = gui.add_button("Keep editing")
+        self.pending_modal = (modal, go_button)
+
+        def go(_e: Any) -> None:
+            modal.close()
+            with self.lock:
+                action()
+
+        go_button.on_click(go)
+        keep.on_click(lambda _e: modal.close())
+        return modal
+
+    def download(self, name: str, data: bytes, client: Any = None) -> None:
+        for target in [client] if client is not None else list(self.server.get_clients().values()):
+            target.send_file_download(name, data)
+
+    def run(self, inputs: dict[str, Any] | None = None, source: str = "run") -> RunRequest | None:
+        """Queue a run through the session (the one way to run); None, with the problems shown, when the
+        graph cannot run. ``inputs``: interface input values (default: the front panel's)."""
+        with self.lock:
+            request = self.session.run(inputs, source=source)
+            if isinstance(request, RunRefused):
+                self.problems.show(request.issues, {})
+                self.notify("error", request.message)
                 return None
-            plan = self.state.plan()
-            if plan.issues:
-                self.problems.show(plan.issues, {})
-                first = plan.issues[0].message
-                more = f" (and {len(plan.issues) - 1} more: see Problems)" if len(plan.issues) > 1 else ""
-                self.notify("error", f"cannot run yet: {first}{more}")
-                return None
-            if inputs is None and self.extensions is not None:
-                inputs = self.extensions.inputs()
-            self.run_button.disabled = True
-            self.status_line.content = "running…"
-            self._run_started = time.perf_counter()
-            return self.runner.start(plan, inputs)
+            self.status_line.content = "running…" if source == "run" else md("running ({})…", source)
+            return request
 
     def wait(self, timeout: float = 60.0) -> Any:
-        """Wait for the current run (tests, scripts); returns the last result."""
-        thread = self.runner.thread
-        if thread is not None:
-            thread.join(timeout)
-        return self.last_result
+        """Wait for the runs going and waiting (tests, scripts); returns the last result."""
+        return self.session.wait(timeout)
 
-    def _run_finished(self, result: Any, error: str | None) -> None:
+    def _run_finished(self, request: RunRequest) -> None:
         with self.lock:
-            self.run_button.disabled = False
-            if error is not None:
-                self.notify("error", f"the run did not start: {error}")
+            if request.error is not None:
+                self.notify("error", f"the run did not start: {request.error}")
                 return
-            self.last_result = result
-            errors = self._run_errors()
+            result = request.result
+            errors = self.session.run_errors()
             self.problems.show(self.state.issues(), errors)
-            seconds = time.perf_counter() - self._run_started
-            if result.ok:
-                self.notify("info", f"run done in {seconds:.2f} s: {len(result.executed)} ran, {len(result.cached)} cached")
+            if request.source != "run":
+                self.status_line.content = md("{}: {}", request.source, "done" if result.ok else "a node failed")
+            elif result.ok:
+                self.notify("info", f"run done in {request.seconds:.2f} s: {len(result.executed)} ran, {len(result.cached)} cached")
             else:
                 first = next(iter(errors.values()), "a node failed")
                 self.notify("error", f"run failed: {first}" + (f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""))
-        for listener in list(self.run_listeners):
-            try:
-                listener(result)
-            except Exception as exc:  # a view that cannot show a result must not break the editor
-                self.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
 
     def export_gcode(self, client: viser.ClientHandle | None = None) -> Path | None:
         """Run the graph (cached) and write its Path output as ``<graph>.ngc`` in the folder, and offer it
@@ -239,32 +259,34 @@ class Editor:
         from flowmc.ui.gcode_export import export_gcode
 
         try:
-            with self.lock:
-                target, text = export_gcode(self.state, self.runtime)
+            target, text = export_gcode(self.session)
         except FlowmcError as exc:
             self.notify("error", f"G-code export: {exc}", client)
             return None
-        for c in [client] if client is not None else list(self.server.get_clients().values()):
-            c.send_file_download(target.name, text.encode("utf-8"))
+        self.download(target.name, text.encode("utf-8"), client)
         self.notify("info", f"wrote {target.name}", client)
         return target
 
     def close(self) -> None:
-        """Stop the run thread, the extensions and the server (safe to call twice)."""
-        self.runner.close()
+        """Stop the session (run queue, job runner, device session), the extensions and the server."""
+        self.session.close()
         if self.extensions is not None:
             self.extensions.close()
         self.server.stop()
 
 
-def serve_main(args: Any) -> int:
-    """``flowmc serve [FILE] [--host] [--port]``: start the editor, print its URL, serve until Ctrl+C."""
+def serve_main(args: Any, *, devices: DeviceAccess | None = None, jobs: JobAccess | None = None) -> int:
+    """``flowmc serve [FILE] [--host] [--port]``: start the editor, print its URL, serve until Ctrl+C.
+    The command line hands in the device session (and job runner) the editor shares with its panels."""
     host, port = getattr(args, "host", "127.0.0.1"), getattr(args, "port", 8080)
     file = getattr(args, "file", None)
-    if host not in ("127.0.0.1", "localhost", "::1"):
+    if not is_loopback(host):
         print(NETWORK_WARNING.format(host=host), file=sys.stderr)
-    editor = Editor(file, host=host, port=port, folder=None if file else Path.cwd())
+    editor = Editor(file, host=host, port=port, folder=None if file else Path.cwd(), devices=devices, jobs=jobs)
     print(f"flowmc editor: {editor.url}" + (f"  ({file})" if file else ""), flush=True)
+    if not is_loopback(host):
+        name = socket.gethostname() if host in ("0.0.0.0", "::", "") else host
+        print(f"  from other machines: {editor.guard.url(name, editor.server.get_port())}", flush=True)
     try:
         while True:
             time.sleep(3600)

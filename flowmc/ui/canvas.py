@@ -15,7 +15,6 @@ from typing import Any, Callable
 import numpy as np
 import viser
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
 from flowmc.ui import canvas_draw as draw
@@ -35,10 +34,10 @@ class Canvas:
     first port clicked while wiring. All edits take ``lock`` (shared with the rest of the editor)."""
 
     def __init__(self, server: viser.ViserServer, state: EditorState, notify: Callable[[str, str], None],
-                 lock: threading.RLock | None = None):
+                 lock: threading.RLock | None = None, status: dict[str, tuple] | None = None):
         self.server, self.state, self.notify = server, state, notify
         self.lock = lock or threading.RLock()
-        self.status: dict[str, tuple[str, float | None, str | None]] = {}
+        self.status: dict[str, tuple[str, float | None, str | None]] = {} if status is None else status
         self.pending: layout.Hit | None = None
         self.boxes: list[layout.NodeBox] = []
         self.curves: dict[tuple[str, str], np.ndarray] = {}
@@ -86,7 +85,7 @@ class Canvas:
         """Redraw from the state: batches are resent whole, labels only where their text or place changed."""
         with self.lock:
             state, plan = self.state, self.state.plan()
-            self.boxes = [layout.node_box(n.id, n.pos, node_ports(n, state.base_dir, plan)) for n in state.graph.nodes]
+            self.boxes = [layout.node_box(n.id, n.pos, node_ports(n, state.runtime.registry, state.base_dir, plan)) for n in state.graph.nodes]
             by_id = {b.node_id: b for b in self.boxes}
             self.curves, types = {}, {}
             for w in state.graph.wires:
@@ -182,7 +181,7 @@ class Canvas:
         if node.type == "subgraph":
             return str(node.params.get("file", "sub-graph"))
         try:
-            return registry.lookup(node.type, self.state.base_dir).title
+            return self.state.runtime.registry.lookup(node.type, self.state.base_dir).title
         except GraphError:
             return f"{node.type} (unknown type)"
 

@@ -1,9 +1,10 @@
 """The device panel: connect to a motion card, home, jog, e-stop, drive outputs and PWM, watch its state.
 
-Everything goes through ``flowmc.devices.card.open_device`` and the ``MotionCard`` interface, so the
-simulated card, a GRBL board and LinuxCNC look the same here. A device error (a limit, a value out
-of range, a port that went away) is shown beside the control that caused it, never as a traceback.
-A background thread refreshes the position and input status a few times a second.
+Everything goes through the editor's device session (``session.DeviceAccess``: one connection, the one
+a job runner uses too) and the card interface it opens, so the simulated card, a GRBL board and
+LinuxCNC look the same here. A device error (a limit, a value out of range, a port that went away) is
+shown beside the control that caused it, never as a traceback. A background thread refreshes the
+position and input status a few times a second.
 """
 
 from __future__ import annotations
@@ -14,16 +15,15 @@ from typing import Any, Callable
 import numpy as np
 import viser
 
-from flowmc.devices.card import MotionCard, known_devices, open_device
-from flowmc.devices.log import DeviceLog
-from flowmc.devices.sim.world import switch_inputs
 from flowmc.errors import FlowmcError
 from flowmc.motion.machine import Machine
+from flowmc.ui.session import DeviceAccess
+from flowmc.ui.text import md
 
 __all__ = ["DevicePanel", "N_OUTPUT_TOGGLES"]
 
 N_OUTPUT_TOGGLES = 8
-#: Options passed to ``open_device`` per backend: the panel drives PWM, so the simulated card's
+#: Options passed to ``DeviceAccess.connect`` per backend: the panel drives PWM, so the simulated card's
 #: shared PWM/DA terminal is set to PWM (its default is DA).
 DEFAULT_OPTIONS = {"sim": {"analog": "pwm"}}
 
@@ -34,7 +34,7 @@ def _message(exc: Exception) -> str:
 
 
 class DevicePanel:
-    """Device controls in a folder of ``gui`` (placed in the current container).
+    """Device controls in a folder of ``gui`` (placed in the current container), on ``devices``.
 
     ``machine_provider``: the Machine to open the device with (a Machine, a function returning the
     editor's current one, or None for the default). ``on_log(log)`` receives the DeviceLog of every
@@ -44,14 +44,14 @@ class DevicePanel:
     ``pwm_button``, ``status`` and the messages ``connection_msg``, ``motion_msg``, ``output_msg``, ``pwm_msg``.
     """
 
-    def __init__(self, gui: Any, machine_provider: Machine | Callable[[], Machine | None] | None = None, *,
-                 label: str = "Device", refresh_s: float = 0.25, device_options: dict | None = None,
-                 on_log: Callable[[DeviceLog], Any] | None = None):
+    def __init__(self, gui: Any, devices: DeviceAccess, machine_provider: Machine | Callable[[], Machine | None] | None = None,
+                 *, label: str = "Device", refresh_s: float = 0.25, device_options: dict | None = None,
+                 on_log: Callable[[Any], Any] | None = None):
         self.gui = gui
+        self.devices = devices
         self.machine_provider = machine_provider
         self.device_options = DEFAULT_OPTIONS if device_options is None else device_options
         self.on_log = on_log
-        self.card: MotionCard | None = None
         self.jog: dict[str, Any] = {}
         self._lock = threading.RLock()
         self._syncing = False
@@ -71,7 +71,7 @@ class DevicePanel:
     # ------------------------------------------------------------------ building
     def _build_connection(self) -> None:
         gui = self.gui
-        self.spec = gui.add_text("Device", "sim", hint="Known: " + ", ".join(known_devices()))
+        self.spec = gui.add_text("Device", "sim", hint="Known: " + ", ".join(self.devices.known()))
         self.connect_button = gui.add_button("Connect", icon=viser.Icon.PLUG_CONNECTED)
         self.disconnect_button = gui.add_button("Disconnect", icon=viser.Icon.PLUG_CONNECTED_X, disabled=True)
         self.connection_msg = gui.add_markdown("Not connected.")
@@ -119,7 +119,12 @@ class DevicePanel:
         p = self.machine_provider
         return p() if callable(p) else p
 
-    def _do(self, message: Any, what: str, call: Callable[[MotionCard], Any]) -> Any:
+    @property
+    def card(self) -> Any:
+        """The session's open card (None when disconnected)."""
+        return self.devices.card
+
+    def _do(self, message: Any, what: str, call: Callable[[Any], Any]) -> Any:
         """Run ``call(card)`` under the lock; a failure goes to ``message`` (and returns None)."""
         with self._lock:
             if self.card is None:
@@ -128,11 +133,11 @@ class DevicePanel:
             try:
                 out = call(self.card)
             except Exception as exc:  # noqa: BLE001 - any device failure is shown at the control, not raised
-                message.content = f"**{what} failed:** {_message(exc)}"
+                message.content = md("**{} failed:** {}", what, _message(exc))
                 return None
-        if isinstance(out, DeviceLog):
+        if hasattr(out, "outcome"):  # a DeviceLog
             events = "; ".join(e.message for e in out.events if e.message)
-            message.content = f"{what}: {out.outcome}" + (f" ({events})" if events else "")
+            message.content = md("{}: {}", what, out.outcome) + (md(" ({})", events) if events else "")
             if self.on_log is not None:
                 self.on_log(out)
         self.refresh()
@@ -144,13 +149,12 @@ class DevicePanel:
         spec = (spec or self.spec.value).strip()
         name = spec.partition(":")[0]
         try:
-            card = open_device(spec, self._machine(), **self.device_options.get(name, {}))
+            with self._lock:
+                card = self.devices.connect(spec, self._machine(), **self.device_options.get(name, {}))
         except Exception as exc:  # noqa: BLE001 - shown at the Device field
-            self.connection_msg.content = f"**Cannot connect:** {_message(exc)}"
+            self.connection_msg.content = md("**Cannot connect:** {}", _message(exc))
             return False
-        with self._lock:
-            self.card = card
-        self.connection_msg.content = f"Connected to **{spec}** (axes {', '.join(card.machine.names)})."
+        self.connection_msg.content = md("Connected to **{}** (axes {}).", spec, ", ".join(card.machine.names))
         self._build_jog(card.machine.names)
         self._set_enabled(True)
         self.refresh()
@@ -158,14 +162,14 @@ class DevicePanel:
 
     def disconnect(self) -> None:
         with self._lock:
-            card, self.card = self.card, None
-        if card is not None:
+            was_open = self.card is not None
             try:
-                card.close()
+                self.devices.disconnect()
             except Exception as exc:  # noqa: BLE001
-                self.connection_msg.content = f"Closed with an error: {_message(exc)}"
+                self.connection_msg.content = md("Closed with an error: {}", _message(exc))
             else:
-                self.connection_msg.content = "Not connected."
+                if was_open:
+                    self.connection_msg.content = "Not connected."
         self._set_enabled(False)
         self.status.content = ""
 
@@ -180,10 +184,10 @@ class DevicePanel:
             box.value = False
         self._syncing = False
 
-    def home(self) -> DeviceLog | None:
+    def home(self) -> Any:
         return self._do(self.motion_msg, "Home all", lambda c: c.home())
 
-    def jog_axis(self, axis: str, direction: int) -> DeviceLog | None:
+    def jog_axis(self, axis: str, direction: int) -> Any:
         """Jog ``axis`` one step in ``direction`` (+1/-1) at the jog speed."""
         step, speed = float(self.step.value), float(self.speed.value)
         if not (np.isfinite(step) and step > 0 and np.isfinite(speed) and speed > 0):
@@ -193,14 +197,14 @@ class DevicePanel:
         return self._do(self.motion_msg, f"Jog {axis}{sign}{step:g} mm",
                         lambda c: c.jog(axis, direction * step, speed))
 
-    def estop(self) -> DeviceLog | None:
+    def estop(self) -> Any:
         log = self._do(self.motion_msg, "E-stop", lambda c: c.estop())
         if log is not None:
             self.motion_msg.content += " — latched: press Reset once the cause is clear"
             self.reset_button.disabled = False
         return log
 
-    def reset(self) -> DeviceLog | None:
+    def reset(self) -> Any:
         """Clear a latched e-stop (the button stays enabled while the device refuses, e.g. its input is closed)."""
         log = self._do(self.motion_msg, "Reset", lambda c: c.reset())
         if log is not None:
@@ -217,7 +221,7 @@ class DevicePanel:
             box.value = not box.value  # the device did not take it: show its real state
             self._syncing = False
 
-    def set_pwm(self) -> DeviceLog | None:
+    def set_pwm(self) -> Any:
         freq, duty = float(self.pwm_freq.value), float(self.pwm_duty.value)
         return self._do(self.pwm_msg, f"PWM {freq:g} Hz {duty:g} %", lambda c: c.set_pwm(freq, duty))
 
@@ -229,15 +233,14 @@ class DevicePanel:
             if card is None:
                 return ""
             pos, inputs, status = card.position(), card.read_inputs(), card.status()
+            switch = card.input_names()
         names = card.machine.names
-        lines = [" · ".join(f"**{a}** {p:.4f}" for a, p in zip(names, pos)) + " mm"]
+        lines = [" · ".join(md("**{}** {:.4f}", a, p) for a, p in zip(names, pos)) + " mm"]
         lines.append(f"E-stop: {'**LATCHED**' if status.get('estop') else 'clear'}"
-                     + (f" · homed: {', '.join(a for a, h in zip(names, status['homed']) if h) or 'none'}"
+                     + (md(" · homed: {}", ", ".join(a for a, h in zip(names, status["homed"]) if h) or "none")
                         if "homed" in status else ""))
-        switch = {ch: f"{a} {label}" for i, a in enumerate(names)
-                  for ch, label in zip(switch_inputs(i), ("+lim", "home", "-lim"))}
         closed = [switch.get(ch, f"in {ch}") for ch, on in sorted(inputs.items()) if on]
-        lines.append("Inputs closed: " + (", ".join(closed) if closed else "none"))
+        lines.append(md("Inputs closed: {}", ", ".join(closed) if closed else "none"))
         if "outputs" in status:
             lines.append("Outputs on: " + (", ".join(f"DO{ch}" for ch in status["outputs"]) or "none"))
         if "pwm_hz_duty" in status:
@@ -250,7 +253,7 @@ class DevicePanel:
         try:
             text = self.status_text()
         except Exception as exc:  # noqa: BLE001 - a port that went away is shown, not raised
-            text = f"**Status failed:** {_message(exc)}"
+            text = md("**Status failed:** {}", _message(exc))
         if text != self.status.content:
             self.status.content = text
 
@@ -260,7 +263,7 @@ class DevicePanel:
                 self.refresh()
 
     def close(self) -> None:
-        """Stop the status thread and close the device (safe to call twice)."""
+        """Stop the status thread and close the connection (safe to call twice)."""
         self._stop.set()
         if self._poller.is_alive():
             self._poller.join(timeout=2.0)

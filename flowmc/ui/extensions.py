@@ -1,11 +1,13 @@
-"""Hook points for the panels built beside the editor: the 3D toolpath view (``view3d``: a second viser
-server, shown in a panel docked left), the front panel and the device panel (tabs of the side panel).
+"""The panels built beside the editor's core: the 3D toolpath view (``view3d``: a second viser server,
+shown in a panel docked left), the front panel and the device panel (tabs of the side panel).
 
 Each is optional: a module that is missing or fails to start is reported in its place and the
-editor works on without it. The editor calls:
-- ``show_result(result)`` after every run (a run listener): the 3D view shows what it produced;
-- ``graph_changed(kind)`` after edits: the front panel is rebuilt when the graph's interface changed;
-- ``inputs()`` before a Run: the front panel's values are the interface inputs.
+editor works on without it. They plug into the editor's session, not into the editor:
+- the 3D view and the front panel hear every run's result (``session.on_result``);
+- a front-panel change queues a run (``host.run(values, source="front panel")``), and the
+  session asks the front panel for the interface inputs of every other run (``inputs_provider``);
+- the device panel drives the session's device session (``session.devices``).
+``graph_changed(kind)`` after edits rebuilds the front panel when the graph's interface changed.
 """
 
 from __future__ import annotations
@@ -13,6 +15,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import FlowmcError
+from flowmc.ui import view3d_data
+from flowmc.ui.session import RunRequest
+from flowmc.ui.text import md
 
 if TYPE_CHECKING:
     from flowmc.ui.app import Editor
@@ -26,6 +31,7 @@ VIEW_HEIGHT = 640
 class Extensions:
     def __init__(self, editor: "Editor"):
         self.editor = editor
+        self.session = editor.session
         self.view: Any = None
         self.front: Any = None
         self.device: Any = None
@@ -37,20 +43,35 @@ class Extensions:
         self._start_view(gui)
         self._start_front(gui)
         self._start_device(gui)
+        self.session.inputs_provider = self.inputs
+        self._unsubscribe = self.session.on_result(self._on_result)
 
     def _failed(self, what: str, exc: BaseException, container: Any = None) -> None:
         text = f"{type(exc).__name__}: {exc}"
         self.failures[what] = text
         if container is not None:
             with container:
-                self.editor.server.gui.add_markdown(f"The {what} is not available: {text}")
+                self.editor.server.gui.add_markdown(md("The {} is not available: {}", what, text))
+
+    def _on_result(self, request: RunRequest) -> None:
+        if self.front is not None and request.source == "front panel":
+            result = request.result
+            if result is None:
+                self.front.show_result(False, request.error or "it did not run")
+            else:
+                self.front.show_result(result.ok, "; ".join(result.errors))
+        if self.view is not None and request.result is not None:
+            try:
+                self.view.show_result(request.result, self.session.state.graph)
+            except Exception as exc:  # noqa: BLE001 - a view that cannot show a result must not break the editor
+                self.editor.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
 
     # ------------------------------------------------------------------ 3D view
     def _start_view(self, gui: Any) -> None:
         try:
             from flowmc.ui.view3d import ToolpathView, embed_html
 
-            self.view = ToolpathView(host=self.editor.host, port=0)
+            self.view = ToolpathView(host=self.editor.host, port=0, guard=self.editor.guard)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a 3D view
             self._failed("3D view", exc)
             return
@@ -59,42 +80,31 @@ class Extensions:
             self.view_html = gui.add_html(embed_html(self.view.url, height=VIEW_HEIGHT))
         self.view_panel.dock_left()
         self.view_panel.set_width(VIEW_WIDTH)
-        self.editor.run_listeners.append(self.show_result)
-
-    def show_result(self, result: Any) -> None:
-        if self.view is not None and result is not None:
-            self.view.show_result(result, self.editor.state.graph)
 
     def _show_log(self, log: Any) -> None:
         """A device operation's log in the 3D view, with what the last run produced."""
         if self.view is None:
             return
-        from flowmc.ui import view3d_data
-
-        shown = view3d_data.collect(self.editor.last_result, self.editor.state.graph) if self.editor.last_result else None
+        result = self.session.last_result
+        shown = view3d_data.collect(result, self.session.state.graph) if result is not None else None
         self.view.show(shown.paths if shown else (), shown.trajectories if shown else (), shown.machine if shown else None,
                        [*(shown.logs if shown else ()), log])
 
     # ------------------------------------------------------------------ front panel
     def _interface_key(self) -> str:
-        iface = self.editor.state.graph.interface
+        iface = self.session.state.graph.interface
         return iface.model_dump_json() if iface is not None else ""
 
     def _start_front(self, gui: Any) -> None:
         try:
-            from flowmc.ui.front_panel import FrontPanel, rerun_callback
+            from flowmc.ui.front_panel import FrontPanel
 
-            state = self.editor.state
-            rerun = rerun_callback(self.editor.runtime, lambda: state.graph, self.view, on_result=self._front_result)
             with self.front_tab:
-                self.front = FrontPanel(gui, state.graph, rerun)
+                self.front = FrontPanel(gui, self.session.state.graph,
+                                        lambda values: self.editor.run(values, source="front panel"),
+                                        self.session.runtime.registry)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a front panel
             self._failed("front panel", exc, self.front_tab)
-
-    def _front_result(self, result: Any) -> None:
-        with self.editor.lock:
-            self.editor.last_result = result
-            self.editor.problems.show(self.editor.state.issues(), self.editor._run_errors())
 
     def graph_changed(self, kind: str) -> None:
         key = self._interface_key()
@@ -113,22 +123,27 @@ class Extensions:
 
     # ------------------------------------------------------------------ device panel
     def _machine(self) -> Any:
-        if self.editor.last_result is None:
+        result = self.session.last_result
+        if result is None:
             return None
-        from flowmc.ui import view3d_data
-
-        return view3d_data.collect(self.editor.last_result, self.editor.state.graph).machine
+        return view3d_data.collect(result, self.session.state.graph).machine
 
     def _start_device(self, gui: Any) -> None:
+        devices = self.session.devices
+        if devices is None:
+            with self.device_tab:
+                gui.add_markdown("No device session: start the editor with `flowmc serve` to drive a card here.")
+            return
         try:
             from flowmc.ui.device_panel import DevicePanel
 
             with self.device_tab:
-                self.device = DevicePanel(gui, self._machine, on_log=self._show_log)
+                self.device = DevicePanel(gui, devices, self._machine, on_log=self._show_log)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a device panel
             self._failed("device panel", exc, self.device_tab)
 
     def close(self) -> None:
+        self._unsubscribe()
         for part in (self.device, self.view):
             if part is not None:
                 try:

@@ -13,9 +13,10 @@ from typing import TYPE_CHECKING, Any
 from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, dumps
 from flowmc.runtime import resolve_inside
+from flowmc.ui.text import md
 
 if TYPE_CHECKING:
-    from flowmc.ui.app import Editor
+    from flowmc.ui.session import PanelHost
 
 __all__ = ["FilesPanel", "graph_files"]
 
@@ -29,9 +30,10 @@ def graph_files(folder: Path) -> list[str]:
 
 
 class FilesPanel:
-    def __init__(self, editor: "Editor"):
-        self.editor = editor
-        gui = editor.server.gui
+    def __init__(self, host: "PanelHost"):
+        self.host = host
+        self.state = host.session.state
+        gui = host.gui
         self.where = gui.add_markdown("")
         self.open_choice = gui.add_dropdown("File", ("(none)",))
         self.open_button = gui.add_button("Open", hint="Open the chosen graph file")
@@ -48,12 +50,12 @@ class FilesPanel:
         self.new_button.on_click(lambda e: self.confirm_discard(self._new, e.client))
         self.upload_button.on_upload(lambda e: self.upload(e.target.value.name, e.target.value.content, e.client))
         self.download_button.on_click(lambda e: self.download(e.client))
-        self.gcode_button.on_click(lambda e: self.editor.export_gcode(e.client))
+        self.gcode_button.on_click(lambda e: self.host.export_gcode(e.client))
         self.refresh()
 
     def refresh(self) -> None:
         """Re-list the folder's graph files and show where the editor reads and writes."""
-        state = self.editor.state
+        state = self.state
         files = graph_files(state.folder) or ["(none)"]
         self.open_choice.options = tuple(files)
         current = state.path.resolve().relative_to(state.folder).as_posix() if state.path is not None and \
@@ -61,92 +63,79 @@ class FilesPanel:
         if current in files:
             self.open_choice.value = current
         self.save_as_name.value = current or state.suggested_name
-        self.where.content = f"Folder: `{state.folder}`"
+        self.where.content = md("Folder: {}", state.folder)
 
     def _inside(self, name: str) -> Path:
         name = name.strip()
         if name and not name.endswith(SUFFIX):
             name += SUFFIX
-        return resolve_inside(self.editor.state.folder, self.editor.state.folder, name, where="file name")
+        return resolve_inside(self.state.folder, self.state.folder, name, where="file name")
 
     def open(self, name: str, client: Any = None, confirmed: bool = False) -> bool:
         if not confirmed:
             return self.confirm_discard(lambda: self.open(name, client, confirmed=True), client)
         try:
-            self.editor.state.load(self._inside(name))
+            self.state.load(self._inside(name))
         except GraphError as exc:
-            self.editor.notify("error", str(exc))
+            self.host.notify("error", str(exc))
             return False
-        self.editor.notify("info", f"opened {name}")
+        self.host.notify("info", f"opened {name}")
         return True
 
     def _new(self) -> None:
-        self.editor.state.load_text(dumps(Graph()), "untitled.flowmc.json")
+        self.state.load_text(dumps(Graph()), "untitled.flowmc.json")
 
     def save(self) -> bool:
-        state = self.editor.state
+        state = self.state
         if state.path is None:
             return self.save_as(self.save_as_name.value)
         try:
             target = state.save()
         except FlowmcError as exc:
-            self.editor.notify("error", str(exc))
+            self.host.notify("error", str(exc))
             return False
-        self.editor.notify("info", f"saved {target.name}")
+        self.host.notify("info", f"saved {target.name}")
         return True
 
     def save_as(self, name: str) -> bool:
         try:
-            target = self.editor.state.save(self._inside(name))
+            target = self.state.save(self._inside(name))
         except FlowmcError as exc:
-            self.editor.notify("error", str(exc))
+            self.host.notify("error", str(exc))
             return False
         self.refresh()
-        self.editor.notify("info", f"saved {target.name}")
+        self.host.notify("info", f"saved {target.name}")
         return True
 
     def upload(self, name: str, content: bytes, client: Any = None) -> bool:
         try:
             text = content.decode("utf-8")
         except UnicodeDecodeError:
-            self.editor.notify("error", f"{name}: not a text file")
+            self.host.notify("error", f"{name}: not a text file")
             return False
 
         def load() -> None:
             try:
-                self.editor.state.load_text(text, name)
+                self.state.load_text(text, name)
             except GraphError as exc:
                 detail = "; ".join(i.message for i in exc.issues[:3]) if exc.issues else ""
-                self.editor.notify("error", f"{exc}" + (f" ({detail})" if detail and detail not in str(exc) else ""))
+                self.host.notify("error", f"{exc}" + (f" ({detail})" if detail and detail not in str(exc) else ""))
                 return
-            self.save_as_name.value = self.editor.state.suggested_name
-            self.editor.notify("info", f"uploaded {name}: not saved yet (Save as to keep it)")
+            self.save_as_name.value = self.state.suggested_name
+            self.host.notify("info", f"uploaded {name}: not saved yet (Save as to keep it)")
 
         return self.confirm_discard(load, client)
 
     def download(self, client: Any = None) -> None:
-        state = self.editor.state
+        state = self.state
         name = state.path.name if state.path is not None else state.suggested_name
-        for target in [client] if client is not None else self.editor.server.get_clients().values():
-            target.send_file_download(name, dumps(state.graph).encode("utf-8"))
+        self.host.download(name, dumps(state.graph).encode("utf-8"), client)
 
     def confirm_discard(self, action: Any, client: Any = None) -> bool:
         """Do ``action`` now, or after the user agrees to lose unsaved changes (a dialog in the browser)."""
-        if not self.editor.state.dirty:
+        if not self.state.dirty:
             action()
             return True
-        gui = client.gui if client is not None else self.editor.server.gui
-        with gui.add_modal("Unsaved changes") as modal:
-            gui.add_markdown("The open graph has unsaved changes. Discard them?")
-            discard = gui.add_button("Discard changes", color="red")
-            keep = gui.add_button("Keep editing")
-        self.editor.pending_modal = (modal, discard)
-
-        def go(_e: Any) -> None:
-            modal.close()
-            with self.editor.lock:
-                action()
-
-        discard.on_click(go)
-        keep.on_click(lambda _e: modal.close())
+        self.host.confirm("Unsaved changes", "The open graph has unsaved changes. Discard them?", "Discard changes",
+                          action, client)
         return False

@@ -2,22 +2,21 @@
 
 Each Number, Bool or Text input becomes a slider, number field, checkbox, text field or dropdown,
 chosen from the schema of the params it feeds (bounds, Literal choices). Changing a control calls
-``on_change(values)`` with every input's value; ``rerun_callback`` makes an ``on_change`` that re-runs
-the graph on a runtime (whose cache runs only the affected nodes) and refreshes the 3D view.
+``on_change(values)`` with every input's value; in the editor that queues a run on its session (the
+one way to run: the runtime's cache runs only the affected nodes, and the 3D view hears the result).
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
-import threading
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from flowmc import registry
 from flowmc.errors import FlowmcError
+from flowmc.ui.text import md, plain
 
-__all__ = ["ControlSpec", "control_specs", "FrontPanel", "rerun_callback"]
+__all__ = ["ControlSpec", "control_specs", "FrontPanel"]
 
 
 @dataclass(frozen=True)
@@ -55,7 +54,7 @@ class ControlSpec:
         return None
 
 
-def _param_schema(graph: Any, ref: str) -> tuple[dict, Any]:
+def _param_schema(graph: Any, ref: str, registry: Any) -> tuple[dict, Any]:
     """The JSON schema of the param a 'node.port' target names (empty for data inputs) and its current value."""
     node_id, _, port = ref.partition(".")
     with contextlib.suppress(FlowmcError, KeyError, LookupError):
@@ -76,9 +75,9 @@ def _nice_step(span: float) -> float:
     return next(m * base for m in (1.0, 2.0, 5.0, 10.0) if m * base >= raw)
 
 
-def _spec(item: Any, graph: Any) -> ControlSpec:
+def _spec(item: Any, graph: Any, registry: Any) -> ControlSpec:
     """The control for one interface input, from the bounds and choices of every param it feeds."""
-    schemas = [_param_schema(graph, ref) for ref in item.to]
+    schemas = [_param_schema(graph, ref, registry) for ref in item.to]
     current = next((v for _, v in schemas if v is not None), None)
     initial = item.default if item.default is not None else current
     low = high = None
@@ -114,10 +113,10 @@ def _spec(item: Any, graph: Any) -> ControlSpec:
                        integer, step, hint=hint, unset=initial is None)
 
 
-def control_specs(graph: Any) -> list[ControlSpec]:
-    """One ControlSpec per interface input of ``graph``, in the interface's order."""
+def control_specs(graph: Any, registry: Any) -> list[ControlSpec]:
+    """One ControlSpec per interface input of ``graph`` (node types from ``registry``), in the interface's order."""
     iface = getattr(graph, "interface", None)
-    return [_spec(item, graph) for item in (iface.inputs if iface else [])]
+    return [_spec(item, graph, registry) for item in (iface.inputs if iface else [])]
 
 
 class FrontPanel:
@@ -127,10 +126,11 @@ class FrontPanel:
     ``controls`` and ``messages`` (per-control problem text) are keyed by input name.
     """
 
-    def __init__(self, gui: Any, graph: Any, on_change: Callable[[dict[str, Any]], Any], *, label: str = "Front panel"):
+    def __init__(self, gui: Any, graph: Any, on_change: Callable[[dict[str, Any]], Any], registry: Any, *,
+                 label: str = "Front panel"):
         self.gui = gui
         self.on_change = on_change
-        self.specs = {s.name: s for s in control_specs(graph)}
+        self.specs = {s.name: s for s in control_specs(graph, registry)}
         self.controls: dict[str, Any] = {}
         self.messages: dict[str, Any] = {}
         self._touched: set[str] = set()
@@ -143,9 +143,9 @@ class FrontPanel:
             self.status = gui.add_markdown("")
 
     def _add(self, spec: ControlSpec) -> None:
-        gui, hint = self.gui, spec.hint or None
+        gui, hint = self.gui, plain(spec.hint) if spec.hint else None
         if spec.kind == "note":
-            gui.add_markdown(f"`{spec.name}` ({spec.type}): fed by a wire, not set here")
+            gui.add_markdown(md("**{}** ({}): fed by a wire, not set here", spec.name, spec.type))
             return
         if spec.kind == "slider":
             lo = spec.low + (spec.step if spec.low_open else 0.0)
@@ -173,42 +173,20 @@ class FrontPanel:
         self._touched.add(name)
         problem = self.specs[name].problem(self.controls[name].value)
         message = self.messages[name]
-        message.content, message.visible = (f"**{name}** {problem}", True) if problem else ("", False)
+        message.content, message.visible = (md("**{}** {}", name, problem), True) if problem else ("", False)
         if problem:
             return
         try:
             self.on_change(self.values())
             self.status.content = ""
         except FlowmcError as err:
-            self.status.content = f"**Run failed:** {err}"
+            self.status.content = md("**Run failed:** {}", err)
+
+    def show_result(self, ok: bool, message: str = "") -> None:
+        """What the run a change caused did: nothing shown when it went well, else why not."""
+        self.status.content = "" if ok else md("**Run failed:** {}", message)
 
     def remove(self) -> None:
         """Take the panel off the page (to rebuild it for a changed interface)."""
         self.folder.remove()
 
-
-def rerun_callback(runtime: Any, graph: Any, view: Any = None,
-                   on_result: Callable[[Any], Any] | None = None) -> Callable[[dict[str, Any]], None]:
-    """An ``on_change`` that runs ``graph`` (a Graph, or a function returning the current one) with the
-    values as interface inputs, shows the result in ``view`` and passes it to ``on_result``.
-
-    Runs never overlap: changes arriving during a run are merged, and the latest values run next.
-    """
-    lock = threading.Lock()
-    pending: dict[str, dict[str, Any]] = {}
-
-    def on_change(values: dict[str, Any]) -> None:
-        pending["values"] = dict(values)
-        while pending and lock.acquire(blocking=False):
-            try:
-                while pending:
-                    current = graph() if callable(graph) else graph
-                    result = runtime.run(current, inputs=pending.pop("values"))
-                    if view is not None:
-                        view.show_result(result, current)
-                    if on_result is not None:
-                        on_result(result)
-            finally:
-                lock.release()
-
-    return on_change

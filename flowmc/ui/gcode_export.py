@@ -1,4 +1,4 @@
-"""Export G-code from the editor: which Path of the graph, run it (cached), write it atomically."""
+"""Export G-code from the editor: which Path of the graph, run it (through the session, cached), write it atomically."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode_write import write_gcode
-from flowmc.runtime import Runtime
+from flowmc.ui.session import EditorSession, RunRefused
 from flowmc.ui.state import EditorState
 
 __all__ = ["export_gcode", "path_source"]
@@ -29,18 +29,25 @@ def path_source(state: EditorState) -> tuple[str, str] | None:
     return None
 
 
-def export_gcode(state: EditorState, runtime: Runtime) -> tuple[Path, str]:
+def export_gcode(session: EditorSession) -> tuple[Path, str]:
     """Write ``<graph stem>.ngc`` beside the graph; returns the file and its text. GcodeError/GraphError say why not."""
-    plan = state.plan()
-    if plan.issues:
-        raise GcodeError(f"the graph cannot run yet: {plan.issues[0].message}", where="export")
-    source = path_source(state)
+    state = session.state
+    with session.lock:
+        issues = state.plan().issues
+        if issues:
+            raise GcodeError(f"the graph cannot run yet: {issues[0].message}", where="export")
+        source = path_source(state)
     if source is None:
         raise GcodeError("the graph has no Path output to write", where="export")
-    result = runtime.run(plan)
-    node = result.nodes[source[0]]
-    if node.status not in ("done", "cached"):
-        raise GcodeError(node.error or f"node {source[0]!r} did not run", where="export")
+    request = session.run(source="export")
+    if isinstance(request, RunRefused):  # edited in between
+        raise GcodeError(request.message, where="export")
+    result = request.wait()
+    if result is None:
+        raise GcodeError(request.error or "the run was replaced by a newer one; export again", where="export")
+    node = result.nodes.get(source[0])
+    if node is None or node.status not in ("done", "cached"):
+        raise GcodeError((node.error if node else None) or f"node {source[0]!r} did not run", where="export")
     stem = state.path.name[: -len(".flowmc.json")] if state.path is not None and state.path.name.endswith(".flowmc.json") \
         else Path(state.suggested_name).name.split(".")[0]
     target = state.base_dir / f"{stem}.ngc"

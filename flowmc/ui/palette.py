@@ -7,10 +7,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import load
-from flowmc.nodes import load_all
 
 __all__ = ["PaletteItem", "palette_items", "search"]
 
@@ -56,10 +54,9 @@ def _graph_files(folder: Path, exclude: Path | None) -> list[PaletteItem]:
     return items
 
 
-def palette_items(graph_dir: Any = None, exclude: Path | None = None) -> list[PaletteItem]:
-    """Every node type (``describe_all``: registered types, then ``lib.*`` graphs) and the graph files
+def palette_items(registry: Any, graph_dir: Any = None, exclude: Path | None = None) -> list[PaletteItem]:
+    """Every node type of ``registry`` (``describe_all``: types, then ``lib.*`` graphs) and the graph files
     beside the open graph (``exclude``: the open graph itself)."""
-    load_all()
     items = [PaletteItem(d["type_id"], d["title"], d["category"], d["description"])
              for d in registry.describe_all(graph_dir)]
     if graph_dir is not None and Path(graph_dir).is_dir():

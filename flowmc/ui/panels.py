@@ -7,9 +7,10 @@ from typing import TYPE_CHECKING, Any
 from flowmc.graph import Issue
 from flowmc.ui import canvas_draw, layout
 from flowmc.ui.palette import PaletteItem, palette_items, search
+from flowmc.ui.text import md, plain
 
 if TYPE_CHECKING:
-    from flowmc.ui.app import Editor
+    from flowmc.ui.session import PanelHost
 
 __all__ = ["PalettePanel", "ProblemsPanel", "free_spot"]
 
@@ -21,9 +22,9 @@ class PalettePanel:
     """A search box and one button per matching entry; a click adds that node in the middle of the view.
     ``buttons`` is keyed by ``PaletteItem.key`` (``path.translate``, ``lib.pocket``, ``subgraph:part.flowmc.json``)."""
 
-    def __init__(self, editor: "Editor"):
-        self.editor = editor
-        gui = editor.server.gui
+    def __init__(self, host: "PanelHost"):
+        self.host = host
+        gui = host.gui
         self.search = gui.add_text("Search", "", hint="Type part of a name, category or description")
         self.count = gui.add_markdown("")
         self.folder = gui.add_folder("Results", expand_by_default=True)
@@ -34,30 +35,26 @@ class PalettePanel:
 
     def refresh(self, reload: bool = True) -> None:
         """Show the entries matching the search text (``reload``: look at the node types and files again)."""
-        editor, gui = self.editor, self.editor.server.gui
-        with editor.lock:
+        state, gui = self.host.session.state, self.host.gui
+        with self.host.session.lock:
             if reload or not self.items:
-                self.items = palette_items(editor.state.base_dir, exclude=editor.state.path)
+                self.items = palette_items(self.host.session.runtime.registry, state.base_dir, exclude=state.path)
             found = search(self.items, self.search.value)
-            self.count.content = f"{len(found)} of {len(self.items)} entries" + (
-                f"; the first {MAX_RESULTS} shown" if len(found) > MAX_RESULTS else "")
+            self.count.content = md("{} of {} entries", len(found), len(self.items)) + (
+                md("; the first {} shown", MAX_RESULTS) if len(found) > MAX_RESULTS else "")
             for button in self.buttons.values():
                 button.remove()
             self.buttons = {}
             with self.folder:
                 for item in found[:MAX_RESULTS]:
-                    button = gui.add_button(f"{item.title}  ·  {item.category}", hint=f"{item.key}: {item.description}")
+                    button = gui.add_button(plain(f"{item.title}  ·  {item.category}", 120), hint=plain(f"{item.key}: {item.description}"))
                     button.on_click(lambda _e, item=item: self.add(item))
                     self.buttons[item.key] = button
 
-    def add(self, item: PaletteItem) -> str:
-        """Add ``item`` at the free spot nearest the middle of the view, and select it."""
-        editor = self.editor
-        with editor.lock:
-            x, y = free_spot(editor.canvas.boxes, editor.canvas.view_centre())
-            node_id = editor.state.add_node(item.type_id, (x, y), dict(item.params))
-            editor.state.select(nodes=[node_id])
-        editor.notify("info", f"added {node_id} ({item.title})")
+    def add(self, item: PaletteItem, at: tuple[float, float] | None = None) -> str:
+        """Add ``item`` at the free spot nearest ``at`` (canvas pixels; default the middle of the view), and select it."""
+        node_id = self.host.add_node(item.type_id, dict(item.params), at)
+        self.host.notify("info", f"added {node_id} ({item.title})")
         return node_id
 
 
@@ -82,16 +79,16 @@ class ProblemsPanel:
     """What stops the graph running (validation issues) and what failed in the last run, one button
     per problem: clicking it selects the node it is about."""
 
-    def __init__(self, editor: "Editor"):
-        self.editor = editor
-        self.summary = editor.server.gui.add_markdown("No problems.")
-        self.folder = editor.server.gui.add_folder("List", expand_by_default=True)
+    def __init__(self, host: "PanelHost"):
+        self.host = host
+        self.summary = host.gui.add_markdown("No problems.")
+        self.folder = host.gui.add_folder("List", expand_by_default=True)
         self.buttons: list[Any] = []
         self.lines: list[str] = []
 
     def show(self, issues: list[Issue], run_errors: dict[str, str]) -> None:
-        editor, gui = self.editor, self.editor.server.gui
-        wires = editor.state.graph.wires
+        host, gui = self.host, self.host.gui
+        wires = host.session.state.graph.wires
         entries = [(canvas_draw.issue_node(i, wires), i.message) for i in issues] + [(n, m) for n, m in run_errors.items()]
         lines = [m for _, m in entries]
         if lines == self.lines:
@@ -108,7 +105,7 @@ class ProblemsPanel:
         self.buttons = []
         with self.folder:
             for node_id, message in entries[:MAX_PROBLEMS]:
-                button = gui.add_button(canvas_draw.shorten(message, 90), hint=message, color="red")
+                button = gui.add_button(plain(canvas_draw.shorten(message, 90)), hint=plain(message), color="red")
                 if node_id is not None:
-                    button.on_click(lambda _e, n=node_id: editor.select_node(n))
+                    button.on_click(lambda _e, n=node_id: host.select_node(n))
                 self.buttons.append(button)

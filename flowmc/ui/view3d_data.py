@@ -12,7 +12,6 @@ from typing import Any
 
 import numpy as np
 
-from flowmc.devices.log import DeviceLog
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
@@ -85,7 +84,8 @@ class Motion:
         return k
 
     @classmethod
-    def of(cls, value: Trajectory | Steps | DeviceLog, name: str) -> "Motion":
+    def of(cls, value: Any, name: str) -> "Motion":
+        """A Trajectory, a Steps stream or a device log (``t``, ``position``, ``axes``) as a Motion."""
         if isinstance(value, Trajectory):
             return cls(name, value.times, value.positions, value.axes, value.signals, segment=value.segment,
                        segment_names=value.segment_names)
@@ -95,7 +95,7 @@ class Motion:
             t = np.arange(len(pos)) * (value.tick if timed else 1.0)
             segment = np.concatenate([value.segment[:1], value.segment])  # row 0 is the origin
             return cls(name, t, pos, value.axes, value.signals, timed, segment, value.segment_names)
-        if isinstance(value, DeviceLog):
+        if is_log(value):
             ok = np.all(np.isfinite(value.position), axis=1)  # GRBL logs hold NaN when no report came
             t, first = np.unique(value.t[ok], return_index=True)  # status reports may repeat a time
             return cls(name, t, value.position[ok][first], value.axes)
@@ -109,8 +109,14 @@ class Shown:
     paths: list[Path] = field(default_factory=list)
     trajectories: list[Trajectory | Steps] = field(default_factory=list)
     machine: Machine | None = None
-    logs: list[DeviceLog] = field(default_factory=list)
+    logs: list[Any] = field(default_factory=list)  # device logs
     names: dict[int, str] = field(default_factory=dict)  # id(value) -> "node.port"
+
+
+def is_log(value: Any) -> bool:
+    """A device log (the ``Log`` port type): a time column, positions per axis and I/O changes. Told by
+    its shape, because the editor does not import the device package that defines it."""
+    return all(hasattr(value, a) for a in ("t", "position", "axes", "changes", "outcome"))
 
 
 def _kind(value: Any) -> str | None:
@@ -120,7 +126,7 @@ def _kind(value: Any) -> str | None:
         return "motion"
     if isinstance(value, Machine):
         return "machine"
-    if isinstance(value, DeviceLog):
+    if is_log(value):
         return "log"
     return None
 
@@ -295,7 +301,7 @@ def signal_events(signals: Signal, source: str = ""):
     return (source, signals.t, signals.kind, signals.channel, signals.value)
 
 
-def log_events(log: DeviceLog, source: str = "device"):
+def log_events(log: Any, source: str = "device"):
     """A device log's I/O changes as an ``io_timelines`` event group (times from the log's start)."""
     c = log.changes
     t0 = float(log.t[0]) if len(log.t) else 0.0

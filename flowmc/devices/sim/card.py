@@ -149,6 +149,11 @@ class SimCard(MotionCard):
                 "spindle_rpm": self._outputs.spindle_rpm, "tool_down": self._outputs.tool_down}
 
     # ---------------------------------------------------------------- inputs
+    def input_names(self) -> dict[int, str]:
+        """Each axis's limit and home switch inputs, by channel (``{9: "X +lim", 10: "X home", ...}``)."""
+        return {ch: f"{name} {label}" for i, name in enumerate(self.machine.names)
+                for ch, label in zip(switch_inputs(i), ("+lim", "home", "-lim"))}
+
     def _switch_levels(self, axis: int, world: np.ndarray) -> tuple[np.ndarray, ...]:
         sw = self.switches[axis]
         return world >= sw.pos_limit, world <= sw.home, world <= sw.neg_limit
