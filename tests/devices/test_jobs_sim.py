@@ -7,6 +7,7 @@ import threading
 import numpy as np
 import pytest
 
+from flowmc.devices.backends import DeviceOptions, SimOptions
 from flowmc.devices.jobs import Job, JobRunner
 from flowmc.errors import DeviceError
 from flowmc.motion.trajectory import Trajectory
@@ -38,7 +39,7 @@ def test_streamed_job_without_commands_is_the_instant_run():
 
 def test_streamed_closed_loop_matches_the_instant_closed_loop():
     motion, machine = example_program()
-    job = Job("sim", machine, "program", motion, options=(("closed_loop", True),))
+    job = Job("sim", machine, "program", motion, options=DeviceOptions(sim=SimOptions(closed_loop=True)))
     instant = JobRunner(job).run()
     runner = JobRunner(job, pace="virtual")
     seen = []

@@ -13,15 +13,6 @@ def driver_for(runner, card):
         from flowmc.devices.jobs.sim_driver import SimInstant, SimStream
 
         return SimInstant(runner, card) if runner.pace == "instant" else SimStream(runner, card)
-    from flowmc.devices.grbl import GrblCard
+    from flowmc.devices.jobs.card_driver import InstantDriver
 
-    if isinstance(card, GrblCard):
-        from flowmc.devices.jobs.grbl_driver import GrblDriver
-
-        return GrblDriver(runner, card)
-    runner_for = getattr(card, "job_driver", None)
-    if runner_for is not None:
-        return runner_for(runner)
-    from flowmc.devices.jobs.card_driver import CardDriver
-
-    return CardDriver(runner, card)
+    return InstantDriver(runner, card)

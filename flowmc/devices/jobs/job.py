@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from flowmc.devices.backends import DeviceOptions
 from flowmc.devices.preflight import PreflightReport
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import describe_segment
@@ -60,7 +61,8 @@ class Job:
 
     ``operation``: ``program`` (``motion`` with ``signals``), ``home`` (``args`` = axes, method),
     ``jog`` (axis, distance, speed) or ``io`` (a tuple of (kind, channel, value) to set at once).
-    ``options``: the device's options (closed loop, pen output, ...). ``report``: the pre-flight.
+    ``options``: the device's options (closed loop, pen output, ...; ``resume`` is filled at Start from the
+    log of the operation before). ``report``: the pre-flight.
     ``name``: what the user calls it (the graph node that prepared it).
     """
 
@@ -70,7 +72,7 @@ class Job:
     motion: Trajectory | Steps | None = None
     signals: Signal = field(default_factory=Signal)
     args: tuple = ()
-    options: tuple[tuple[str, Any], ...] = ()
+    options: DeviceOptions = field(default_factory=DeviceOptions)
     safe: SafeOutputs = field(default_factory=SafeOutputs)
     report: PreflightReport | None = None
     name: str = ""
@@ -80,10 +82,6 @@ class Job:
             raise ValueError(f"unknown job operation {self.operation!r}; known: {', '.join(OPERATIONS)}")
         if (self.operation == "program") != (self.motion is not None):
             raise ValueError("a program job needs motion, other jobs none")
-
-    @property
-    def option_dict(self) -> dict[str, Any]:
-        return dict(self.options)
 
     @property
     def segment_names(self) -> tuple[str, ...]:
@@ -114,7 +112,7 @@ class Job:
         h = hashlib.blake2b(digest_size=16)
         for part in (self.device, self.machine.model_dump_json(), self.operation,
                      self.motion.digest() if self.motion is not None else "", self.signals.digest(),
-                     json.dumps([self.args, self.options], default=str), repr(self.safe)):
+                     json.dumps(self.args, default=str), repr(self.options), repr(self.safe)):
             h.update(part.encode())
             h.update(b"\0")
         return h.hexdigest()

@@ -21,10 +21,11 @@ import hashlib
 import tempfile
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Iterator
 
-from flowmc.devices.card import open_device
+from flowmc.devices.backends import open_device
 from flowmc.devices.jobs.job import ACTIVE, FINAL, Job, JobEvent, JobStatus
 from flowmc.devices.log import DeviceLog
 from flowmc.errors import DeviceError, FlowmcError
@@ -247,11 +248,9 @@ class JobRunner:
             raise DeviceError("a job runs once; prepare it again to run it again", where="job")
         try:
             with claim(self.job.device, f"job {self.job.name!r}" if self.job.name else "another job"):
-                options = self.job.option_dict
-                if self.after is not None and self.after.state.get("device") == "sim" and self.job.device == "sim":
-                    options["state"] = self.after.state
+                options = replace(self.job.options, resume=self.after.state if self.after is not None else None)
                 self.set_state("running", f"started: {self.job.describe()}")
-                with open_device(self.job.device, self.job.machine, **options) as card:
+                with open_device(self.job.device, self.job.machine, options) as card:
                     driver = driver_for(self, card)
                     self.log = driver.run()
         except FlowmcError as err:
@@ -270,7 +269,5 @@ class JobRunner:
 
 
 def _replace(status: JobStatus, **changes) -> JobStatus:
-    from dataclasses import replace
-
     return replace(status, **changes)
 

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 
+from flowmc.devices.jobs.card_driver import InstantDriver
 from flowmc.devices.jobs.job import Job, gcode_line, positions_of
 from flowmc.devices.jobs.restart import plan_start
 from flowmc.devices.log import Change, DeviceLog, Event
@@ -60,62 +61,14 @@ def _outputs_status(card) -> dict:
             "tool_down": out.tool_down, "pwm": list(out.pwm), "da": out.da}
 
 
-class SimInstant:
-    """The whole operation at once; the log is what the card did. A fault leaves the outputs safe."""
+class SimInstant(InstantDriver):
+    """The whole operation at once on the simulated card (its own outputs made safe after a fault)."""
 
-    def __init__(self, runner, card):
-        self.runner, self.card = runner, card
+    def outputs(self) -> dict:
+        return _outputs_status(self.card)
 
-    def run(self) -> DeviceLog:
-        runner, card, job = self.runner, self.card, self.runner.job
-        runner.emit("tick", commanded=positions_of(card.position()), actual=positions_of(card.position()),
-                    outputs=_outputs_status(card))
-        if job.operation == "program":
-            log = card.run(job.motion, job.signals, check=False)
-        elif job.operation == "home":
-            log = card.home(*job.args)
-        elif job.operation == "jog":
-            log = card.jog(*job.args)
-        else:
-            log = self._io(job)
-        for change in log.changes:
-            runner.emit("io", change=change)
-        if log.outcome != "done":
-            safe = _make_safe(card, job)
-            log = log.amended(safe, [Event("safe", card.clock, "", f"outputs left safe: {job.safe.describe()}")],
-                              state=card.state())
-        end = log.position[-1] if len(log.position) else card.position()
-        runner.emit("tick", commanded=positions_of(card._counts * card.step_mm), actual=positions_of(end),
-                    progress=1.0, time_left=0.0, t=float(log.duration), outputs=_outputs_status(card))
-        if log.outcome != "done":
-            err = DeviceError(_stop_message(log), where=job.device)
-            err.log = log
-            raise err
-        return log
-
-    def _io(self, job: Job) -> DeviceLog:
-        card = self.card
-        changes, events = [], []
-        for kind, ch, value, freq in job.args:
-            if kind == "dout":
-                done = card.set_output(int(ch), bool(value))
-            elif kind == "pwm_duty":
-                done = card.set_pwm(freq, value)
-            elif kind == "da":
-                done = card.set_da(value)
-            else:
-                done = card.set_spindle(value)
-            changes += done.changes
-            events += done.events
-        self.runner.extra["inputs"] = sum(1 << (ch - 1) for ch, on in card.read_inputs().items() if on)
-        now = card.snapshot()
-        return DeviceLog(now.device, now.axes, now.period, now.t, now.steps, now.position, now.following_error,
-                         changes, events, now.outcome, now.state)
-
-
-def _stop_message(log: DeviceLog) -> str:
-    what = [e.message for e in log.events if e.kind in ("limit", "soft_limit", "estop", "home_failed", "error")]
-    return f"the device stopped ({log.outcome})" + (": " + "; ".join(what) if what else "")
+    def make_safe(self) -> list[Change]:
+        return _make_safe(self.card, self.job)
 
 
 class SimStream:
