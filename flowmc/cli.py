@@ -322,7 +322,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("serve", parents=[plugins], help="open the graph editor in the browser")
     p.add_argument("file", nargs="?", help="graph file to open (default: browse the current folder)")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="port to listen on")
+    p.add_argument("--port", type=int, default=8080, help="port to listen on (default: 8080)")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("compare", parents=[plugins], help="compare a graph's motion with LinuxCNC's")
