@@ -170,7 +170,7 @@ def run_variant(job: Job, loaded: _Loaded, variant: Variant) -> dict[str, Any]:
         for name in job.to_sim:
             job.targets[name].apply(graph, "sim", inputs)
         result = loaded.runtime.run(graph, inputs)
-    except Exception as exc:  # an invalid variant, or a bug: still one row, never a dead worker
+    except Exception as exc:  # noqa: BLE001 - an invalid variant, or a bug: still one row, never a dead worker
         row.update(status="failed", error=_message(exc), outputs={}, ran=0, cached=0)
     else:
         if loaded.loose:

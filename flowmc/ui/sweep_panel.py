@@ -59,7 +59,7 @@ def suggested_values(spec: ControlSpec) -> str:
 class SweepPanel:
     """Built in the container current when it is made (the editor's Sweep tab)."""
 
-    def __init__(self, host: "PanelHost"):
+    def __init__(self, host: PanelHost):
         self.host = host
         gui = host.gui
         self.session = host.session

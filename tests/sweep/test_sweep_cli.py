@@ -72,7 +72,7 @@ def test_ctrl_c_keeps_the_rows_done_and_resume_finishes(tmp_path, executor):
     while time.monotonic() < deadline and len(journal(out) if (out / "rows.jsonl").exists() else []) < 10:
         time.sleep(0.05)
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C at a terminal reaches the whole process group
-    stdout, stderr = proc.communicate(timeout=120)
+    _stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130, stderr
     assert "interrupted:" in stderr and "--resume" in stderr and "Traceback" not in stderr
     kept = journal(out)

@@ -59,7 +59,8 @@ def test_a_sweep_of_a_front_panel_control_runs_and_plots(editor, tmp_path):
     assert progress[-1].left == 0 and progress[-1].done == 2
     shown = unescape_md(panel.status.content)
     assert "2 done, 1 failed" in shown and "First failure, variant 1: node 'check': check failed" in shown
-    rows = list(csv.DictReader(open(tmp_path / "arm_lookahead-sweep" / "rows.csv")))
+    with open(tmp_path / "arm_lookahead-sweep" / "rows.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
     assert [r["rule"] for r in rows] == ["blend", "arm_weighted", "junction_deviation"]
     assert (tmp_path / "arm_lookahead-sweep" / "report.html").exists()
     assert "metrics.contour_error" in panel.output.options  # table outputs can be plotted after the sweep
