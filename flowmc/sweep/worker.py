@@ -47,13 +47,14 @@ class Job:
     node_folders: tuple[str, ...] = ()
     shipped: bytes | None = field(default=None, repr=False)
 
-    @property
-    def key(self) -> str:
+    key: str = field(init=False, repr=False)  # names the job's runtime on a worker
+
+    def __post_init__(self) -> None:
         h = hashlib.blake2b(self.graph_json.encode(), digest_size=12)
         h.update(f"\0{self.folder}\0{self.graph_name}\0{self.to_sim}\0{self.node_folders}".encode())
         if self.shipped is not None:
             h.update(hashlib.blake2b(self.shipped, digest_size=12).digest())
-        return h.hexdigest()
+        object.__setattr__(self, "key", h.hexdigest())
 
 
 def pack_folder(folder: Path, skip: tuple[Path, ...] = ()) -> bytes:
