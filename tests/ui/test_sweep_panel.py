@@ -40,8 +40,12 @@ def tol_editor(tmp_path):
 
 
 def test_suggested_values_come_from_the_control():
-    assert suggested_values(ControlSpec("f", "slider", 5.0, "Number", 0.0, 10.0, step=0.05)) == "0, 2.5, 5, 7.5, 10"
+    assert suggested_values(ControlSpec("f", "slider", 0.05, "Number", 0.0, 10.0, low_open=True, step=0.05)) \
+        == "0.025, 0.05, 0.1"
+    assert suggested_values(ControlSpec("f", "slider", 8.0, "Number", 0.0, 10.0, step=0.05)) == "4, 8"
+    assert suggested_values(ControlSpec("f", "slider", 0.0, "Number", 0.0, 10.0, step=0.05)) == "0, 2.5, 5, 7.5, 10"
     assert suggested_values(ControlSpec("n", "slider", 2, "Number", 1.0, 3.0, integer=True, step=1)) == "1, 2, 3"
+    assert suggested_values(ControlSpec("n", "slider", 20, "Number", 1.0, 100.0, integer=True, step=1)) == "10, 20, 40"
     assert suggested_values(ControlSpec("r", "number", 4.0, "Number")) == "2, 4, 8"
     assert suggested_values(ControlSpec("m", "dropdown", "a", "Text", options=("a", "b"))) == "a, b"
     assert suggested_values(ControlSpec("on", "checkbox", True, "Bool")) == "true, false"
