@@ -53,6 +53,8 @@ from pathlib import Path as FsPath
 import numpy as np
 
 from flowmc.errors import GcodeError, printable
+from flowmc.fileio import read_bytes
+from flowmc.motion import budget
 from flowmc.motion.gcode_write import format_mm
 from flowmc.motion.path import _RADIUS_TOL, PLANES, Arc, Dwell, Line, Path, Segment
 
@@ -580,6 +582,10 @@ def _build(prog: _Program, errors: _Errors, rapid_feed: float) -> list[Segment]:
     errors.first(dwell & (val["P"] < 0), "G4 dwell time (P) must be >= 0 seconds")
     errors.first(arc & has["P"] & ~(_is_whole(val["P"]) & (val["P"] >= 1)),
                  named("P on {g} must be a whole number of turns, 1 or more"))
+    max_turns = budget.cap("turns")
+    errors.first(arc & has["P"] & (val["P"] - 1 > max_turns),
+                 lambda line: f"P asks for {val['P'][line]:,.0f} turns, over the arc-turns budget of {max_turns:,}: "
+                              "use fewer turns (FLOWMC_BUDGET_TURNS raises the budget)")
     errors.first(io_p & ~has["P"], lambda line: f"M{io[line]} needs a P word (output number)")
     errors.first(io_p & has["P"] & ~(_is_whole(val["P"]) & (val["P"] >= 0)),
                  lambda line: f"M{io[line]} output number (P) must be a whole number >= 0")
@@ -687,6 +693,8 @@ def _assemble(prog, n, mi, end, ai_local, centre, a_normal, turns, mode, feed, v
     """Segment objects in program order: per line, an at-once output dwell, a G4 dwell, then the move."""
     source = prog.source
     m = mi.size
+    budget.check("segments", m, what=f"a program of {m:,} moves", where=source,
+                 change="split the program into smaller files")
     # Spindle: S and the direction in force on each line.
     s_lines, s_values = lines_of.words("S")
     speed = _ffill(n, s_lines, s_values, 0.0)
@@ -824,7 +832,9 @@ def parse_gcode(text: str, source: str = "<text>", *, rapid_feed: float = RAPID_
         raise GcodeError(f"G-code must be text, got {type(text).__name__}", where=source)
     if not (isinstance(rapid_feed, (int, float)) and rapid_feed > 0 and math.isfinite(rapid_feed)):
         raise GcodeError(f"rapid feed must be > 0 mm/s, got {rapid_feed!r}", where=source)
-    text = text.replace("\r\n", "\n").replace("\r", "\n")
+    budget.check("bytes", len(text), what=f"a G-code program of {len(text):,} characters", where=source,
+                 change="split the program into smaller files")
+    text = text.removeprefix("\ufeff").replace("\r\n", "\n").replace("\r", "\n")
     prog = _tokenise(_clean(text, block_delete), text, source)
     return _interpret(prog, float(rapid_feed))
 
@@ -835,8 +845,8 @@ def read_gcode(path: str | os.PathLike, *, rapid_feed: float = RAPID_FEED, block
     path = FsPath(path)
     name = source or path.name
     try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise GcodeError(f"cannot read the G-code file: {exc.strerror or exc}", where=source or str(path)) from exc
-    return parse_gcode(data.decode("utf-8", errors="replace"), name, rapid_feed=rapid_feed,
+        data = read_bytes(path, limit=budget.cap("bytes"), what="G-code file", error=GcodeError)
+    except GcodeError as exc:
+        raise GcodeError(exc.message, where=source or str(path)) from None
+    return parse_gcode(data.decode("utf-8-sig", errors="replace"), name, rapid_feed=rapid_feed,
                        block_delete=block_delete)

@@ -24,7 +24,7 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PathError, PlanningError
-from flowmc.motion import nurbs, profiles, timediv
+from flowmc.motion import budget, nurbs, profiles, timediv
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path, describe_segment
@@ -92,7 +92,11 @@ def time_division(path: Path, machine: Machine, *, profile: Literal["trapezoid",
     chunks, worst_chord, worst_radial = [], 0.0, 0.0
     for i, seg in enumerate(path.segments):
         where = describe_segment(i, seg.source)
+        budget.check("setpoints", sum(len(c) for c in chunks), what=f"interpolating up to {where}",
+                     change="raise the feeds, shorten the program, or lengthen the machine's period")
         if isinstance(seg, Dwell):
+            budget.check("setpoints", seg.seconds / period, what=f"a dwell of {seg.seconds:g} s", where=where,
+                         change="shorten the dwell, or lengthen the machine's period")
             chunks.append(np.repeat(seg.start[None, :], max(math.ceil(seg.seconds / period - 1e-9), 0) + 1, 0))
             continue
         feed = min(segment_feed(seg, where), vmax)
