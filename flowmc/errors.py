@@ -77,5 +77,5 @@ class LimitError(DeviceError):
 
 
 class BudgetError(FlowmcError):
-    """A node would produce more than the resource budget allows (``flowmc.motion.budget``); the
+    """A node would produce more than the resource budget allows (``flowmc.budget``); the
     message says how much was asked for, the cap, and what to change."""

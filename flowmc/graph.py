@@ -25,7 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 from flowmc.errors import GraphError
 from flowmc.fileio import read_text
 from flowmc.migrations import SCHEMA_VERSION, migrate
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.ports import PORT_TYPES
 
 __all__ = [

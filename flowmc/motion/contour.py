@@ -24,7 +24,7 @@ from typing import Any, Literal, Sequence
 import numpy as np
 
 from flowmc.errors import PathError
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.motion.path import Line, Path
 
 __all__ = [

@@ -24,7 +24,8 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PathError, PlanningError
-from flowmc.motion import budget, nurbs, profiles, timediv
+import flowmc.budget as budget
+from flowmc.motion import nurbs, profiles, timediv
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path, describe_segment

@@ -28,7 +28,7 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PlanningError
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.limits import PathLimits

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.motion.limits import AxisLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path

@@ -15,7 +15,7 @@ from scipy.interpolate import BSpline, PPoly
 from scipy.ndimage import maximum_filter1d
 
 from flowmc.errors import PathError, PlanningError
-from flowmc.motion import budget
+import flowmc.budget as budget
 
 __all__ = [
     "clamped_uniform_knots",

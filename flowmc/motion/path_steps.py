@@ -27,7 +27,8 @@ import math
 import numpy as np
 
 from flowmc.errors import PathError
-from flowmc.motion import budget, stepinterp
+import flowmc.budget as budget
+from flowmc.motion import stepinterp
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, Path, describe_segment
 from flowmc.motion.signals import path_signals, step_start_times
 from flowmc.motion.trajectory import Steps

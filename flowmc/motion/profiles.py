@@ -20,7 +20,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from flowmc.errors import PlanningError
-from flowmc.motion import budget
+import flowmc.budget as budget
 
 __all__ = ["Profile", "plan_trapezoid", "plan_exponential", "plan_scurve", "sample_profile"]
 

@@ -16,7 +16,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from flowmc.errors import PathError
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.motion.path import Arc, EllipseArc, Line, Path, Segment
 
 __all__ = ["LineRow", "ArcRow", "EllipseRow", "Row", "path_from_rows"]

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flowmc.errors import PathError
-from flowmc.motion import budget
+import flowmc.budget as budget
 
 __all__ = [
     "StepStream",

@@ -20,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from flowmc.errors import GraphError, NodeError
 from flowmc.fileio import fingerprint, read_text
 from flowmc.graph import Graph, Issue, dumps, loads
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.ports import REQUIRED, In, Out, Ports
 from flowmc.registry import NodeType, NoParams, Registry, register
 from flowmc.runtime.binding import BindContext, Binding

@@ -15,7 +15,7 @@ import networkx as nx
 
 from flowmc.fileio import fingerprint
 from flowmc.graph import Graph, Issue
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.ports import In, Out
 from flowmc.registry import Registry
 from flowmc.runtime.context import Site

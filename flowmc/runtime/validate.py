@@ -22,7 +22,7 @@ from pydantic import BaseModel, ValidationError
 
 from flowmc.errors import GraphError
 from flowmc.graph import Graph, Issue, Node, split_ref
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.ports import In, Out, Ports
 from flowmc.registry import NodeType, Registry, check_ports
 from flowmc.runtime.binding import BindContext, binder_of

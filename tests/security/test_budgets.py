@@ -14,9 +14,9 @@ from probes import PROBES, run_probe
 
 import flowmc
 from flowmc.errors import BudgetError, GcodeError, GraphError, PathError
-from flowmc.motion import budget
+import flowmc.budget as budget
 from flowmc.motion.contour import simplify, simplify_all
-from flowmc.motion.gcode_read import parse_gcode
+from flowmc.motion.gcode import parse_gcode
 from flowmc.motion.lookahead import plan_lookahead
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Arc, Line, Path
@@ -66,7 +66,7 @@ def test_the_environment_sets_the_budget(tmp_path):
     import subprocess
     import sys
 
-    code = "from flowmc.motion import budget; print(budget.current().memory_mb, budget.cap('turns'))"
+    code = "import flowmc.budget as budget; print(budget.current().memory_mb, budget.cap('turns'))"
     env = {**os.environ, "FLOWMC_MEMORY_MB": "64", "FLOWMC_BUDGET_TURNS": "7"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["64.0", "7"]
@@ -85,7 +85,7 @@ def test_planners_check_before_they_allocate():
 def test_arc_turns_and_sampling_are_bounded():
     with pytest.raises(BudgetError, match="turns"):
         Arc((10, 0, 0), (10, 0, 0), (0, 0, 0), turns=10**6)
-    with pytest.raises(GcodeError, match="p.ngc:1: P asks for 100,000 turns"):  # names the line
+    with pytest.raises(GcodeError, match="p.ngc:1: the arc makes 100,000 turns"):  # names the line
         parse_gcode("G2 X0 Y0 I10 J0 P100000 F600\n", "p.ngc")
     arc = Arc((10, 0, 0), (10, 0, 0), (0, 0, 0), turns=9000)
     with pytest.raises(BudgetError, match="chord tolerance"):

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from flowmc.motion import budget
+import flowmc.budget as budget
 
 __all__ = ["line_move", "ramp"]
 
