@@ -22,10 +22,10 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
+import flowmc.budget as budget
 from flowmc.errors import GraphError
 from flowmc.fileio import read_text
 from flowmc.migrations import SCHEMA_VERSION, migrate
-import flowmc.budget as budget
 from flowmc.ports import PORT_TYPES
 
 __all__ = [

@@ -23,8 +23,8 @@ from typing import Any, Literal, Sequence
 
 import numpy as np
 
-from flowmc.errors import PathError
 import flowmc.budget as budget
+from flowmc.errors import PathError
 from flowmc.motion.path import Line, Path
 
 __all__ = [

@@ -23,8 +23,8 @@ from typing import Literal
 
 import numpy as np
 
-from flowmc.errors import PathError, PlanningError
 import flowmc.budget as budget
+from flowmc.errors import PathError, PlanningError
 from flowmc.motion import nurbs, profiles, timediv
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
@@ -90,7 +90,8 @@ def time_division(path: Path, machine: Machine, *, profile: Literal["trapezoid",
     check_joined(path)
     vmax, amax, jmax = PathLimits.of(machine).smallest()
     period = machine.period
-    chunks, worst_chord, worst_radial = [], 0.0, 0.0
+    chunks: list[np.ndarray] = []
+    worst_chord, worst_radial = 0.0, 0.0
     for i, seg in enumerate(path.segments):
         where = describe_segment(i, seg.source)
         budget.check("setpoints", sum(len(c) for c in chunks), what=f"interpolating up to {where}",

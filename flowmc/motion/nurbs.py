@@ -14,8 +14,8 @@ import numpy as np
 from scipy.interpolate import BSpline, PPoly
 from scipy.ndimage import maximum_filter1d
 
-from flowmc.errors import PathError, PlanningError
 import flowmc.budget as budget
+from flowmc.errors import PathError, PlanningError
 
 __all__ = [
     "clamped_uniform_knots",

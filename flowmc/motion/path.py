@@ -16,8 +16,8 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from flowmc.errors import PathError
 import flowmc.budget as budget
+from flowmc.errors import PathError
 from flowmc.motion.values import array_digest, frozen_array
 
 __all__ = [

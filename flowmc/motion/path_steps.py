@@ -26,8 +26,8 @@ import math
 
 import numpy as np
 
-from flowmc.errors import PathError
 import flowmc.budget as budget
+from flowmc.errors import PathError
 from flowmc.motion import stepinterp
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, Path, describe_segment
 from flowmc.motion.signals import path_signals, step_start_times
@@ -174,7 +174,8 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
         raise PathError("the path is empty")
     origin = _grid(path.start, step)
     cur = origin
-    blocks, labels = [], []
+    blocks: list[np.ndarray] = []
+    labels: list[np.ndarray] = []
     for i, seg in enumerate(path):
         try:
             streams = _segment_streams(seg, cur, step, tol, interp)

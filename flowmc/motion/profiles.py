@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from flowmc.errors import PlanningError
 import flowmc.budget as budget
+from flowmc.errors import PlanningError
 
 __all__ = ["Profile", "plan_trapezoid", "plan_exponential", "plan_scurve", "sample_profile"]
 

@@ -15,8 +15,8 @@ from typing import Annotated, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from flowmc.errors import PathError
 import flowmc.budget as budget
+from flowmc.errors import PathError
 from flowmc.motion.path import Arc, EllipseArc, Line, Path, Segment
 
 __all__ = ["LineRow", "ArcRow", "EllipseRow", "Row", "path_from_rows"]

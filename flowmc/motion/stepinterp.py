@@ -49,8 +49,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowmc.errors import PathError
 import flowmc.budget as budget
+from flowmc.errors import PathError
 
 __all__ = [
     "StepStream",

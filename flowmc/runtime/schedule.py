@@ -13,9 +13,9 @@ from typing import Any
 
 import networkx as nx
 
+import flowmc.budget as budget
 from flowmc.fileio import fingerprint
 from flowmc.graph import Graph, Issue
-import flowmc.budget as budget
 from flowmc.ports import In, Out
 from flowmc.registry import Registry
 from flowmc.runtime.context import Site

@@ -10,16 +10,16 @@ import time
 
 import numpy as np
 import pytest
-from probes import PROBES, run_probe
 
 import flowmc
-from flowmc.errors import BudgetError, GcodeError, GraphError, PathError
 import flowmc.budget as budget
+from flowmc.errors import BudgetError, GcodeError, GraphError, PathError
 from flowmc.motion.contour import simplify, simplify_all
 from flowmc.motion.gcode import parse_gcode
 from flowmc.motion.lookahead import plan_lookahead
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Arc, Line, Path
+from probes import PROBES, run_probe
 
 
 @pytest.mark.parametrize("probe", PROBES, ids=[p.name for p in PROBES])
@@ -116,9 +116,8 @@ def test_graph_files_are_bounded_in_size_depth_and_text(tmp_path):
 
 
 def test_sub_graph_fan_out_is_bound_once_per_file(tmp_path, monkeypatch):
-    from probes import _fan_out
-
     from flowmc.nodes import subgraph
+    from probes import _fan_out
 
     top = _fan_out(10)(tmp_path)
     reads = []

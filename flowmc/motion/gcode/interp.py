@@ -21,9 +21,9 @@ import re
 from dataclasses import dataclass, field
 
 import flowmc.budget as budget
-from flowmc.errors import GcodeError
 import flowmc.motion.gcode.codes as C
 import flowmc.motion.gcode.expr as X
+from flowmc.errors import GcodeError
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, ArcError, centre_ijk, centre_r
 from flowmc.motion.gcode.canon import Canon
 from flowmc.motion.gcode.codes import InterpError
