@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import flowmc.budget as budget
+from flowmc.fileio import fingerprint
 from flowmc.graph import Graph, Issue
 from flowmc.ports import In, Out
 from flowmc.registry import Registry
@@ -36,7 +38,8 @@ class Plan:
     generations: list[list[str]]
     iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]]
     iface_outputs: dict[str, tuple[Any, tuple[str, str]]]
-    deps: dict[Path, tuple[int, int]] = field(default_factory=dict)  # files read (sub-graphs) and their stat
+    deps: dict[Path, str | None] = field(default_factory=dict)  # files read (sub-graphs) and their content hash
+    size: int = 0  # nodes the graph expands to: its own, and those of the graphs they hold, in turn
 
     @property
     def ok(self) -> bool:
@@ -67,15 +70,7 @@ class Plan:
         return found
 
     def deps_unchanged(self) -> bool:
-        return all(_stat(path) == stat for path, stat in self.deps.items())
-
-
-def _stat(path: Path) -> tuple[int, int] | None:
-    try:
-        st = path.stat()
-    except OSError:
-        return None
-    return st.st_mtime_ns, st.st_size
+        return all(fingerprint(path) == digest for path, digest in self.deps.items())
 
 
 def find_cycles(edges: list[tuple[str, str]]) -> list[list[str]]:
@@ -111,9 +106,12 @@ def generations(node_ids: list[str], edges: list[tuple[str, str]]) -> list[list[
     return out
 
 
-def make_plan(graph: Graph, site: Site, registry: Registry) -> Plan:
-    """Validate ``graph`` against ``registry`` and order it; graphs that nodes hold are planned the same way."""
-    checked = check_graph(graph, site, registry, lambda inner, inner_site: make_plan(inner, inner_site, registry))
+def make_plan(graph: Graph, site: Site, registry: Registry, memo: dict[Any, Any] | None = None) -> Plan:
+    """Validate ``graph`` against ``registry`` and order it; graphs that nodes hold are planned the same way,
+    each file once per planning pass (``memo``), so a file used many times costs no more than once."""
+    memo = {} if memo is None else memo
+    checked = check_graph(graph, site, registry, lambda inner, inner_site: make_plan(inner, inner_site, registry, memo),
+                          memo)
     edges = sorted(set(checked.edges))
     successors: dict[str, set[str]] = {}
     for src, dst in edges:
@@ -125,5 +123,11 @@ def make_plan(graph: Graph, site: Site, registry: Registry) -> Plan:
         for ids in find_cycles(edges):
             text = " -> ".join(ids + ids[:1])
             issues.append(Issue("cycle", ("nodes", ids[0]), f"node {ids[0]!r}: cycle {text}"))
+    size = len(checked.node_ids) + sum(n.binding.size for n in checked.nodes.values() if isinstance(n.binding, Plan))
+    limit = budget.cap("expansion")
+    if size > limit:
+        issues.append(Issue("budget", (), f"the graph expands to {size:,} nodes through its sub-graphs, over the "
+                                          f"budget of {limit:,}: use a sub-graph fewer times, or raise the limit "
+                                          "(FLOWMC_BUDGET_EXPANSION)"))
     return Plan(graph, site, registry, issues, checked.nodes, successors, order,
-                checked.iface_inputs, checked.iface_outputs, checked.deps)
+                checked.iface_inputs, checked.iface_outputs, checked.deps, size)
