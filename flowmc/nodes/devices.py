@@ -71,11 +71,11 @@ def _machine_for(machine: Machine | None, motion=None) -> Machine:
 
 def _options(params: _DeviceParams) -> DeviceOptions:
     """The device's options from the node's params (the state to resume from comes at Start)."""
-    pen = isinstance(params, CardOutputParams)
+    card = params if isinstance(params, CardOutputParams) else None  # only Card output drives a pen
     return DeviceOptions(
         sim=SimOptions(closed_loop=params.closed_loop, estop_input=params.estop_input or None, analog=params.analog,
-                       pen_output=(params.pen_output or None) if pen else None),
-        grbl=GrblOptions(params.grbl_pen_down, params.grbl_pen_up) if pen else GrblOptions())
+                       pen_output=(card.pen_output or None) if card else None),
+        grbl=GrblOptions(card.grbl_pen_down, card.grbl_pen_up) if card else GrblOptions())
 
 
 def _report(ctx, log: DeviceLog) -> None:
@@ -251,9 +251,9 @@ class _SignalParams(_Params):
                                     "error messages count them)")] = "time"
 
 
-def _times(at: str, points: list[float], motion) -> np.ndarray:
+def _times(at: str, given: list[float], motion) -> np.ndarray:
     """Times of the change points: as given, or the first setpoint of each segment (numbered from 1)."""
-    points = np.asarray(points, dtype=float)
+    points = np.asarray(given, dtype=float)
     if at == "time":
         return points
     if not isinstance(motion, (Trajectory, Steps)):
