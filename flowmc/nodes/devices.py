@@ -96,11 +96,13 @@ class _DeviceNode(NodeType):
         try:
             runner = start_job(job, after, ctx.start, ctx.node_id)
         except DeviceError as err:
-            if getattr(err, "log", None) is not None:
+            if err.log is not None:
                 _report(ctx, err.log)
             raise
-        _report(ctx, runner.log)
-        return {"log": runner.log, **{name: float(value) for name, value in runner.extra.items()}}
+        log = runner.log
+        assert log is not None  # a runner that ended without a fault has its log
+        _report(ctx, log)
+        return {"log": log, **{name: float(value) for name, value in runner.extra.items()}}
 
 
 # ---------------------------------------------------------------- machine

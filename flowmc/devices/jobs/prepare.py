@@ -31,13 +31,13 @@ START_OPTIONS = ("pace", "speed", "start_at", "single_block", "feed", "rapid", "
 
 
 def program_job(device: str, machine: Machine, motion: Trajectory | Steps, signals: Signal | None = None,
-                options: DeviceOptions | None = None, *, safe: SafeOutputs = SafeOutputs(), name: str = "") -> Job:
+                options: DeviceOptions | None = None, *, safe: SafeOutputs | None = None, name: str = "") -> Job:
     """A program checked against the machine and the card (``LimitError``/``DeviceError`` naming where)."""
     options = options or DeviceOptions()
     card = unconnected(device, machine, options)
     report = card.check_program(motion, signals)
     return Job(device.strip(), machine, "program", motion, signals if signals is not None else Signal(),
-               options=options, safe=safe, report=report, name=name)
+               options=options, safe=safe or SafeOutputs(), report=report, name=name)
 
 
 def home_job(device: str, machine: Machine, axes: tuple[str, ...] | None, method: str,
