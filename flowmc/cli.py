@@ -1,6 +1,7 @@
 """The ``flowmc`` command: run graphs headless, validate them, list node types, print the schema, sweep.
 
-Exit codes: 0 success, 1 the run failed (or a tool is missing), 2 the graph or an argument is invalid.
+Exit codes: 0 success, 1 the run failed (or a tool is missing), 2 the graph or an argument is invalid,
+130 a job stopped by Ctrl-C (a controlled stop).
 Every problem is one line on stderr; no tracebacks (set FLOWMC_DEBUG=1 to see them).
 """
 
@@ -20,7 +21,7 @@ from flowmc.settings import UsageError, input_target, param_target
 
 __all__ = ["main", "build_parser"]
 
-EXIT_OK, EXIT_FAILED, EXIT_INVALID = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_INVALID, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 def _err(line: str) -> None:
@@ -139,16 +140,50 @@ def cmd_run(args: argparse.Namespace) -> int:
         return EXIT_INVALID
     if not args.quiet:
         runtime.subscribe(_progress_printer(len(plan.order)))
-    result = runtime.run(plan, inputs)
+    result = runtime.run(plan, inputs)  # device nodes prepare their jobs; nothing moves yet
+    console = None
+    if result.ok and result.jobs:  # ``flowmc run`` is the explicit Start on the command line
+        from flowmc.cli_jobs import JobConsole
+
+        console = JobConsole(quiet=args.quiet)
+        result = console.start(runtime, result, _start_options(args, result))
     if args.out:
         write_json_atomic(Path(args.out), {"graph": str(args.file), **result.summary()})
     for name, value in result.outputs.items():
         print(f"{name} = {json.dumps(_json_safe(flowmc.runtime.summarize(value)))}")
+    if console is not None and console.interrupted:
+        for line in console.where_stopped():
+            _err(f"stopped by Ctrl-C: {line}")
+        return EXIT_INTERRUPTED
     if not result.ok:
         for message in result.errors:
             _err(f"error: {message}")
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _start_options(args: argparse.Namespace, prepared: Any) -> dict[str, Any]:
+    """The job runners' options from ``--realtime``, ``--speed``, ``--start-at`` and the overrides."""
+    options: dict[str, Any] = {"pace": "realtime" if args.realtime else "instant", "speed": args.speed}
+    for name in ("feed", "rapid", "spindle"):
+        if getattr(args, name) is not None:
+            options[name] = getattr(args, name)
+    if args.start_at:
+        node, _, number = args.start_at.rpartition(":")
+        programs = [n for n, job in prepared.jobs.items() if getattr(job, "operation", "") == "program"]
+        if not node:
+            if len(programs) != 1:
+                raise UsageError(f"--start-at {args.start_at}: say which job, NODE:SEGMENT (program jobs: "
+                                 f"{', '.join(programs) or 'none'})")
+            node = programs[0]
+        if node not in programs:
+            raise UsageError(f"--start-at {args.start_at}: {node!r} is not a program job (program jobs: "
+                             f"{', '.join(programs) or 'none'})")
+        try:
+            options["start_at"] = {node: int(number)}
+        except ValueError:
+            raise UsageError(f"--start-at {args.start_at}: the segment is a number from 1") from None
+    return options
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -308,6 +343,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
     p.add_argument("--out", metavar="results.json", help="write per-node results and outputs as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no per-node progress on stderr")
+    jobs = p.add_argument_group("jobs (flowmc run is the explicit Start: device nodes run; Ctrl-C stops them, "
+                                "exit 130)")
+    jobs.add_argument("--realtime", action="store_true",
+                      help="run the simulated card's jobs at the pace of the wall clock (default: at once)")
+    jobs.add_argument("--speed", type=float, default=1.0, metavar="X",
+                      help="with --realtime: this many times faster than real time (default 1)")
+    jobs.add_argument("--start-at", metavar="[NODE:]SEGMENT",
+                      help="start the program job from this segment (from 1): the machine state there is rebuilt "
+                           "and the tool approaches safely")
+    jobs.add_argument("--feed", type=float, metavar="PCT", help="feed override, 10-200 %% (default 100)")
+    jobs.add_argument("--rapid", type=float, metavar="PCT", help="rapid override, 25, 50 or 100 %%")
+    jobs.add_argument("--spindle", type=float, metavar="PCT", help="spindle override, 50-200 %%")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("validate", parents=[plugins], help="check a graph without running it")

@@ -72,6 +72,7 @@ class NodeContext:
     _log: Callable[[str], None] = field(repr=False)
     binding: Any = field(default=None, repr=False)  # sub-graph node types: their bound inner plan
     _child: Callable[[], Any] | None = field(default=None, repr=False)
+    start: Any = field(default=None, repr=False)  # the explicit Start a device node's start() runs under
 
     @property
     def graph_dir(self) -> Path:

@@ -8,13 +8,15 @@ from typing import Callable, Literal
 
 __all__ = ["EVENT_KINDS", "Event", "Listener", "EventBus"]
 
-EventKind = Literal["queued", "running", "done", "cached", "failed", "skipped", "log"]
-EVENT_KINDS: tuple[str, ...] = ("queued", "running", "done", "cached", "failed", "skipped", "log")
+EventKind = Literal["queued", "running", "done", "cached", "failed", "skipped", "log", "ready", "stale", "waiting"]
+EVENT_KINDS: tuple[str, ...] = ("queued", "running", "done", "cached", "failed", "skipped", "log", "ready", "stale",
+                                "waiting")
 
 
 @dataclass(frozen=True, slots=True)
 class Event:
-    """``duration`` (s) on done/failed; ``message`` on failed/skipped (why) and log."""
+    """``duration`` (s) on done/failed/ready/stale; ``message`` on failed/skipped/waiting (why), log, and
+    ready/stale (what the prepared job is)."""
 
     kind: EventKind
     node_id: str

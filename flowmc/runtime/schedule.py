@@ -53,6 +53,11 @@ class Plan:
     def pure(self) -> bool:
         return all(node.pure for node in self.nodes.values())
 
+    @property
+    def moves(self) -> bool:
+        """Some node drives a device: running the plan prepares jobs, only Start runs them."""
+        return any(node.moves for node in self.nodes.values())
+
     def ports(self, node_id: str) -> tuple[dict[str, In], dict[str, Out]]:
         """Inputs (data and param ports) and outputs of a node as bound in this graph."""
         node = self.nodes[node_id]

@@ -56,6 +56,7 @@ class BoundNode:
     pure: bool
     static: bytes = b""
     binding: Any = None  # types that hold a graph (runtime.binding): the inner plan
+    moves: bool = False  # a device node, or a sub-graph holding one: two phases (runtime.start)
     sources: dict[str, tuple[str, str]] = field(default_factory=dict)  # input -> (node, output)
     fed: dict[str, str] = field(default_factory=dict)  # input -> interface input name
 
@@ -152,7 +153,8 @@ def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph
     outputs = {p.name: p for p in ports.outputs}
     params_json = params.model_dump_json() if params is not None else json.dumps(node.params, sort_keys=True, default=str)
     static = static_key(cls.type_id, cls.version, params_json, extra)
-    return BoundNode(node.id, cls, node.params, params, inputs, outputs, pure, static, binding)
+    moves = bool(cls.moves or (binding is not None and getattr(binding, "moves", False)))
+    return BoundNode(node.id, cls, node.params, params, inputs, outputs, pure, static, binding, moves=moves)
 
 
 def _validate_params(node: Node, cls: type[NodeType], fed_ports: set[str]) -> tuple[BaseModel | None, list[Issue]]:

@@ -26,6 +26,9 @@ STATUS_COLORS: dict[str | None, tuple[int, int, int]] = {
     "cached": (175, 222, 230),
     "failed": (240, 120, 120),
     "skipped": (205, 205, 205),
+    "ready": (150, 190, 250),  # a device node's job is prepared: Start runs it
+    "stale": (250, 195, 95),  # prepared, and not the program that last ran on the device
+    "waiting": (222, 214, 242),  # needs a device node's output: runs at Start
 }
 FRAME = (95, 95, 100)
 FRAME_SELECTED = (255, 140, 0)
