@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -49,8 +49,9 @@ class GcodeIn(NodeType):
     title = "G-code in"
     category = "Path"
     description = "Read G-code as LinuxCNC does (parameters, O-words, offsets, tools, cycles, cutter comp) as a path."
-    pure = False  # the files may change between runs
     fixed_params = ("file", "tool_table", "parameter_file", "subroutine_folder")
+    # cached while these files (and the subroutine folder's files) are unchanged: their sizes and times are in the key
+    reads = ("file", "tool_table", "parameter_file", "subroutine_folder")
     version = 2
     Params = GcodeInParams
     outputs = (Out("path", "Path", doc="The program's moves, dwells, pauses and tool changes, in machine "
@@ -112,8 +113,8 @@ class GcodeOut(NodeType):
     outputs = (Out("text", "Text", doc="The G-code program"),)
 
     def run(self, ctx, params: GcodeOutParams, path: Path):
-        options = dict(decimals=params.decimals, blend_tolerance=params.blend_tolerance,
-                       chord_tolerance=params.chord_tolerance)
+        options: dict[str, Any] = dict(decimals=params.decimals, blend_tolerance=params.blend_tolerance,
+                                       chord_tolerance=params.chord_tolerance)
         if not params.file:
             return {"text": path_to_gcode(path, **options)}
         target = ctx.resolve(params.file)
