@@ -281,7 +281,6 @@ class Interpreter:
         return err
 
     def _loop(self) -> None:
-        max_blocks = self.options.max_blocks
         max_segments = self.options.max_segments
         block_delete = self.options.block_delete
         canon = self.canon
@@ -330,10 +329,7 @@ class Interpreter:
                 continue
             if block.delete and block_delete:
                 continue
-            self.blocks_run += 1
-            if self.blocks_run > max_blocks:
-                raise self._error(src, i, f"the program runs more than {max_blocks} lines (an endless loop?); "
-                                          f"raise max_blocks if it is meant to")
+            self.count_block(src, i)
             self.line_no = i + 1
             self.file_index = src.index
             try:
@@ -346,6 +342,13 @@ class Interpreter:
             if len(canon.kind) > max_segments:
                 raise self._error(src, i, f"the program makes more than {max_segments} segments; "
                                           f"raise max_segments if it is meant to")
+
+    def count_block(self, src: Source, i: int) -> None:
+        """One more line run; the budget stops endless loops."""
+        self.blocks_run += 1
+        if self.blocks_run > self.options.max_blocks:
+            raise self._error(src, i, f"the program runs more than {self.options.max_blocks} lines (an endless "
+                                      f"loop?); raise max_blocks if it is meant to")
 
     def _fast_ready(self) -> bool:
         """Whether a run of plain lines may be read at once (nothing special in force)."""

@@ -694,7 +694,6 @@ def _read_profile(interp, q: float, start: complex, incremental: bool, arc_incre
     s = interp.scale
     segs: list[_Segment] = []
     block_delete = interp.options.block_delete
-    max_blocks = interp.options.max_blocks
     while len(interp.frames) > depth:
         where, k = interp.src, interp.pc
         if k >= where.end:
@@ -707,10 +706,7 @@ def _read_profile(interp, q: float, start: complex, incremental: bool, arc_incre
             where.cache[k] = block
         if block is None or (block.delete and block_delete):
             continue
-        interp.blocks_run += 1
-        if interp.blocks_run > max_blocks:
-            raise interp._error(where, k, f"the program runs more than {max_blocks} lines (an endless loop?); "
-                                          f"raise max_blocks if it is meant to")
+        interp.count_block(where, k)
         interp.line_no = k + 1
         try:
             if block.oword is not None:
