@@ -88,7 +88,7 @@ def gouges(tool_path: list[tuple[int, Segment]], contour: list[tuple[int, Segmen
     region = _region(segs, radius)
     if not region:
         return []
-    found = []
+    found: list[tuple[int, Segment, float, float, int, float]] = []
     for index, seg in tool_path:
         if seg.rapid or not isinstance(seg, (Line, Arc)) or seg.length <= 0:
             continue
@@ -186,7 +186,7 @@ def pocket_loops(polygons: list, radius: float, stepover: float, tolerance: floa
     union = pyclipper.Pyclipper()
     union.AddPaths(polygons, pyclipper.PT_SUBJECT, True)
     region = union.Execute(pyclipper.CT_UNION, pyclipper.PFT_EVENODD, pyclipper.PFT_EVENODD)
-    rings = []
+    rings: list[list[np.ndarray]] = []
     for k in range(max_loops + 1):
         shrink = pyclipper.PyclipperOffset(2.0, tolerance * _SCALE)
         shrink.AddPaths(region, pyclipper.JT_ROUND, pyclipper.ET_CLOSEDPOLYGON)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path as FsPath
-from typing import Callable, Literal
+from typing import Any, Callable, Literal
 
 import numpy as np
 
@@ -101,7 +101,7 @@ def curve_to_arcs(point: Callable[[float], np.ndarray], t0: float, t1: float, to
             length = float(np.hypot(*chord))
             worst = 0.0 if length == 0 else max(abs(_cross2(chord, p - ps)) / length for _, p in checks)
             worst = max(worst, 0.0 if length == 0 else abs(_cross2(chord, pm - ps)) / length)
-            piece = ("line", pe)
+            piece: tuple = ("line", pe)
         else:
             r = float(np.hypot(*(ps - centre)))
             worst = max(abs(float(np.hypot(*(p - centre))) - r) for _, p in checks)
@@ -279,13 +279,15 @@ def dxf_strokes(source: FsPath, *, curves: Curves = "arcs", tolerance: float = 0
     def xy(v) -> np.ndarray:
         return np.array([float(v[0]) * scale, float(v[1]) * scale])
 
-    for count, e in enumerate(doc.modelspace(), 1):
+    entity: Any
+    for count, entity in enumerate(doc.modelspace(), 1):
+        e = entity
         kind = e.dxftype()
         where = f"{label} {kind} #{count} ({e.dxf.handle})"
         layer = e.dxf.layer if e.dxf.hasattr("layer") else "0"
         colour = _dxf_colour(e, doc)
 
-        def stroke(start) -> Stroke:
+        def stroke(start, layer=layer, colour=colour, where=where) -> Stroke:
             s = Stroke(xy(start), [], layer, colour, where)
             strokes.append(s)
             return s
@@ -409,11 +411,11 @@ def strokes_to_path(strokes: list[Stroke], styles: list[Style] | tuple = (), *, 
                     segments.append(Arc(cur, end, p3(piece[2]), ccw=piece[3], feed=style.feed, source=s.source))
                 elif kind == "ellipse":
                     _, c, u, v, t0, t1 = piece
-                    curve = EllipseArc(p3(c), np.append(np.asarray(u) * scale, 0.0),
-                                       np.append(np.asarray(v) * scale, 0.0), t0, t1, feed=style.feed,
-                                       source=s.source)
-                    end = curve.end
-                    segments.append(curve)
+                    ellipse = EllipseArc(p3(c), np.append(np.asarray(u) * scale, 0.0),
+                                         np.append(np.asarray(v) * scale, 0.0), t0, t1, feed=style.feed,
+                                         source=s.source)
+                    end = ellipse.end
+                    segments.append(ellipse)
                 else:
                     _, ctrl, weights, knots, degree = piece
                     pts = np.column_stack([np.asarray(ctrl) * scale + o, np.full(len(ctrl), z)])

@@ -13,6 +13,7 @@ Points are complex numbers z + x*1j in program units, as in LinuxCNC.
 from __future__ import annotations
 
 import math
+from typing import cast
 
 from flowmc.motion.gcode.codes import InterpError
 
@@ -96,11 +97,33 @@ class _Segment:
             if isinstance(self, _Round):
                 _round_round(self, nxt)
             else:
-                _line_round(self, nxt)
+                _line_round(cast(_Straight, self), nxt)
         elif isinstance(self, _Round):
-            _round_line(self, nxt)
+            _round_line(self, cast(_Straight, nxt))
         else:
-            _line_line(self, nxt)
+            _line_line(cast(_Straight, self), cast(_Straight, nxt))
+
+    # Each kind of segment says how it is drawn, offset, crossed, climbed and dived (LinuxCNC's methods).
+    def draw(self, out) -> None:
+        raise NotImplementedError
+
+    def offset(self, distance: float) -> None:
+        raise NotImplementedError
+
+    def radius(self) -> float:
+        raise NotImplementedError
+
+    def crossings(self, x: float) -> list[float]:
+        raise NotImplementedError
+
+    def climb(self, at: complex, out) -> tuple[bool, complex]:
+        raise NotImplementedError
+
+    def climb_only(self, at: complex, out) -> complex:
+        raise NotImplementedError
+
+    def dive(self, at: complex, x: float, out, fast: bool) -> tuple[bool, complex]:
+        raise NotImplementedError
 
 
 class _Straight(_Segment):
