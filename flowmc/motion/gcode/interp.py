@@ -20,6 +20,7 @@ import math
 import re
 from dataclasses import dataclass, field
 
+import flowmc.budget as budget
 import flowmc.motion.gcode.codes as C
 import flowmc.motion.gcode.expr as X
 from flowmc.errors import GcodeError
@@ -56,7 +57,8 @@ class GcodeOptions:
     systems and homes (1: a mm machine; 25.4: inches, as LinuxCNC's standalone rs274).
     ``subroutine_dirs``: folders searched for ``<name>.ngc`` when ``o<name> call`` finds no
     definition. ``flood_output``/``mist_output``: digital outputs that M8/M7 switch (M9 both off).
-    ``max_blocks``/``max_segments``: budgets against endless loops and runaway programs.
+    ``max_blocks``/``max_segments``: budgets against endless loops and runaway programs (None: from
+    the memory budget, ``flowmc.budget``: the segments one node may make, and ten lines run per segment).
     """
 
     rapid_feed: float = 200.0
@@ -67,8 +69,8 @@ class GcodeOptions:
     subroutine_dirs: tuple = ()
     flood_output: int = 1
     mist_output: int = 2
-    max_blocks: int = 20_000_000
-    max_segments: int = 5_000_000
+    max_blocks: int | None = None
+    max_segments: int | None = None
     max_warnings: int = 100
 
 
@@ -91,10 +93,16 @@ def _rotate(x: float, y: float, c: float, s: float) -> tuple[float, float]:
     return c * x - s * y, s * x + c * y
 
 
+def _too_many_segments(limit: int) -> str:
+    return (f"the program makes more than {limit:,} segments, over the budget: split it, or raise the memory "
+            "budget (flowmc run --memory-mb, FLOWMC_MEMORY_MB) if it is meant to")
+
+
 class Interpreter:
     """Runs one program. ``run(text, name)`` -> the Canon (columns of segments)."""
 
     def __init__(self, options: GcodeOptions):
+        self.max_blocks = options.max_blocks or 10 * budget.cap("segments")
         self.options = options
         self.tools = options.tool_table or ToolTable()
         self.machine_mm = float(options.machine_units_mm)
@@ -281,7 +289,8 @@ class Interpreter:
         return err
 
     def _loop(self) -> None:
-        max_segments = self.options.max_segments
+        max_segments = self.options.max_segments or budget.cap("segments")
+        self.max_blocks = self.options.max_blocks or 10 * budget.cap("segments")
         block_delete = self.options.block_delete
         canon = self.canon
         main = self.sources[0]
@@ -312,8 +321,7 @@ class Interpreter:
                         self.pc = i + done
                         self.blocks_run += done
                         if len(canon.kind) > max_segments:
-                            raise self._error(src, i + done - 1, f"the program makes more than {max_segments} "
-                                                                 f"segments; raise max_segments if it is meant to")
+                            raise self._error(src, i + done - 1, _too_many_segments(max_segments))
                         continue
             self.pc = i + 1
             cached = src.cache.get(i, False) if (self.frames or self.loops) else False
@@ -340,15 +348,15 @@ class Interpreter:
             except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
                 raise self._error(src, i, str(exc)) from None
             if len(canon.kind) > max_segments:
-                raise self._error(src, i, f"the program makes more than {max_segments} segments; "
-                                          f"raise max_segments if it is meant to")
+                raise self._error(src, i, _too_many_segments(max_segments))
 
     def count_block(self, src: Source, i: int) -> None:
         """One more line run; the budget stops endless loops."""
         self.blocks_run += 1
-        if self.blocks_run > self.options.max_blocks:
-            raise self._error(src, i, f"the program runs more than {self.options.max_blocks} lines (an endless "
-                                      f"loop?); raise max_blocks if it is meant to")
+        if self.blocks_run > self.max_blocks:
+            raise self._error(src, i, f"the program runs more than {self.max_blocks} lines (an endless loop?); "
+                                      "split it, or raise the memory budget (flowmc run --memory-mb, "
+                                      "FLOWMC_MEMORY_MB) if it is meant to")
 
     def _fast_ready(self) -> bool:
         """Whether a run of plain lines may be read at once (nothing special in force)."""
