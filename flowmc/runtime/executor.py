@@ -20,7 +20,7 @@ from flowmc.digest import Undigestable, digest
 from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, Issue, load
 from flowmc.registry import Registry
-from flowmc.runtime.cache import CacheEntry, NodeCache, signature
+from flowmc.runtime.cache import CacheEntry, IterationCache, NodeCache, signature
 from flowmc.runtime.context import NodeContext, Site, resolve_inside
 from flowmc.runtime.events import Event, EventBus, Listener
 from flowmc.runtime.schedule import Plan, make_plan
@@ -117,6 +117,7 @@ class Runtime:
         self.cache = NodeCache()
         self._plans: dict[tuple, Plan] = {}
         self._children: dict[str, Runtime] = {}
+        self.iterations = IterationCache()  # a structure's child runtime: its body's runs by content
 
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Call ``listener(event)`` for every event of every run; returns an unsubscribe function."""
@@ -125,6 +126,7 @@ class Runtime:
     def clear_cache(self) -> None:
         with self._run_lock:
             self.cache.clear()
+            self.iterations.clear()
             self._children.clear()
 
     def child(self, key: str) -> "Runtime":
@@ -222,7 +224,9 @@ class _Run:
         self.blocked: dict[str, str] = {}
 
     def emit(self, kind: str, node_id: str, duration: float | None = None, message: str | None = None) -> None:
-        event = Event(kind, node_id, duration, message)  # type: ignore[arg-type]
+        self.announce(Event(kind, node_id, duration, message))  # type: ignore[arg-type]
+
+    def announce(self, event: Event) -> None:
         self.events.append(event)
         self.runtime.events.emit(event)
 
@@ -293,7 +297,8 @@ class _Run:
             result.logs.append(message)
             self.emit("log", node.id, message=message)
 
-        ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id))
+        ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id),
+                          _announce=self.announce)
         outputs = node.cls().run(ctx, params, **kwargs)
         _check_outputs(node, outputs)
         return outputs
