@@ -38,6 +38,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+import flowmc.budget as budget
 from flowmc.errors import GraphError, NodeError
 from flowmc.graph import NAME_PATTERN, Issue
 from flowmc.motion.path import Path
@@ -49,9 +50,8 @@ from flowmc.runtime.binding import BindContext, Binding
 from flowmc.runtime.iterations import BodyRunner, iteration_text
 from flowmc.runtime.schedule import Plan
 
-__all__ = ["ForLoop", "WhileLoop", "CaseStructure", "MAX_ITERATIONS", "MAX_DEPTH", "LoopBody", "CaseBodies"]
+__all__ = ["ForLoop", "WhileLoop", "CaseStructure", "MAX_DEPTH", "LoopBody", "CaseBodies"]
 
-MAX_ITERATIONS = 100_000  # iterations of one loop run: a typo of a count must not run for hours
 MAX_DEPTH = 16  # structures inside structures
 INDEX = "i"
 STOP = "stop"
@@ -144,6 +144,10 @@ class LoopBody:
     inputs: tuple[str, ...]  # body inputs the loop feeds (tunnels and shift registers; not i)
     has_index: bool
     outputs: dict[str, str]  # the loop's outputs taken from the body (not stop), by name: body output type
+
+    @property
+    def size(self) -> int:  # nodes it expands to (the expansion budget)
+        return self.plan.size
 
 
 def _bind_loop(cls: type[NodeType], params: _LoopParams, at: BindContext, needs_stop: bool) -> Binding:
@@ -264,9 +268,8 @@ class _Loop(NodeType):
 
 
 def _check_count(count: int, what: str) -> None:
-    if count > MAX_ITERATIONS:
-        raise NodeError(f"{what} {count} is over the cap of {MAX_ITERATIONS:,} iterations of one loop; "
-                        "split the work, or loop over fewer, larger steps")
+    budget.check("iterations", count, what=f"a loop with {what} {count:,}",
+                 change="loop over fewer, larger steps, or split the work over several loops")
 
 
 @register
@@ -331,6 +334,10 @@ class CaseBodies:
     keys: dict[str, str]
     matches: tuple[tuple[str, Any], ...]  # (label, True/False | intervals | text), in file order
     default: str | None
+
+    @property
+    def size(self) -> int:
+        return sum(plan.size for plan in self.plans.values())
 
     def choose(self, selector: Any) -> str:
         if isinstance(selector, float) and not math.isfinite(selector):

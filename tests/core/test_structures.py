@@ -12,7 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field
 import flowmc
 from flowmc.errors import GraphError
 from flowmc.graph import dumps, loads
-from flowmc.nodes.structures import MAX_ITERATIONS
+import flowmc.budget as budget
 from flowmc.registry import NodeType, Out
 
 RUNS: list[float] = []
@@ -247,10 +247,22 @@ def test_a_failing_iteration_is_named(reg):
     assert error.startswith("node 'loop': iteration 3 of 5: node 'div': division by zero")
 
 
-def test_loop_count_is_capped_with_a_clear_error(reg):
-    result = flowmc.run(_for_graph(3), inputs={"n": float(MAX_ITERATIONS + 1)}, registry=reg)
+def test_loop_count_is_capped_by_the_budget_with_a_clear_error(reg):
+    result = flowmc.run(_for_graph(3), inputs={"n": float(budget.cap("iterations") + 1)}, registry=reg)
     (error,) = result.errors
-    assert "count 100001 is over the cap of 100,000 iterations" in error and error.startswith("node 'loop'")
+    assert error.startswith("node 'loop': a loop with count 100,001 needs 100,001 iterations, over the budget of "
+                            "100,000: loop over fewer, larger steps"), error
+    assert "FLOWMC_BUDGET_ITERATIONS" in error
+    with budget.limits(iterations=2):
+        assert "over the budget of 2" in flowmc.run(_for_graph(3), registry=reg).errors[0]
+
+
+def test_bodies_count_towards_the_expansion_budget(reg):
+    plan = flowmc.Runtime(reg).plan(_for_graph(3))
+    assert plan.size == 2 + 2
+    with budget.limits(expansion=3):
+        (issue,) = flowmc.Runtime(reg).validate(_for_graph(3))
+    assert issue.code == "budget" and "through its sub-graphs and structures" in issue.message
 
 
 def test_body_problems_name_the_structure_and_point_into_the_body(reg):
