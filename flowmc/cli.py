@@ -13,6 +13,7 @@ import math
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any, Callable
 
@@ -87,10 +88,17 @@ def write_json_atomic(path: Path, data: Any) -> None:
 
 def _progress_printer(total: int) -> Callable[[Any], None]:
     count = 0
+    shown = [0.0]  # when an iteration line was last printed: loops say where they are about once a second
 
     def show(event: Any) -> None:
         nonlocal count
         if event.kind in ("queued", "running"):
+            return
+        if event.kind == "iteration":
+            k, of = event.iteration or (0, None)
+            if k == 1 or k == of or time.monotonic() - shown[0] >= 1.0:
+                shown[0] = time.monotonic()
+                _err(f"        {event.node_id}: {event.message}")
             return
         if event.kind == "log":
             _err(f"        {event.node_id}: {event.message}")
