@@ -17,7 +17,7 @@ import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
@@ -33,6 +33,9 @@ __all__ = [
     "InterfaceInput",
     "InterfaceOutput",
     "Interface",
+    "Comment",
+    "Label",
+    "View",
     "Graph",
     "split_ref",
     "load",
@@ -89,7 +92,7 @@ class InterfaceInput(_Model):
     type: PortType
     description: str = ""
     default: Any = Field(None, description="Value used when not given; null: internal ports keep their own")
-    to: list[str] = Field(min_length=1, description="Internal 'node.port' targets")
+    to: list[str] = Field(default_factory=list, description="Internal 'node.port' targets (none: not wired yet)")
 
 
 class InterfaceOutput(_Model):
@@ -106,15 +109,50 @@ class Interface(_Model):
     outputs: list[InterfaceOutput] = Field(default_factory=list)
 
 
+_Size = Annotated[float, Field(gt=0)]
+TERMINAL_PATTERN = r"^(in|out)\.[A-Za-z_][A-Za-z0-9_]*$"
+
+
+class Comment(_Model):
+    """A comment box on the canvas: text over a frame behind nodes. View state: it never changes a result."""
+
+    id: str = Field(pattern=ID_PATTERN, description="Stable id, unique among comments and labels")
+    text: str = ""
+    pos: tuple[float, float] = Field((0.0, 0.0), description="Top-left corner [x, y], canvas pixels")
+    size: tuple[_Size, _Size] = Field((320.0, 200.0), description="[width, height], canvas pixels")
+
+
+class Label(_Model):
+    """A free text label on the canvas. View state."""
+
+    id: str = Field(pattern=ID_PATTERN, description="Stable id, unique among comments and labels")
+    text: str = ""
+    pos: tuple[float, float] = Field((0.0, 0.0), description="Top-left corner [x, y], canvas pixels")
+
+
+class View(_Model):
+    """How the graph is drawn apart from node positions: comments, labels, and where the interface's
+    input and output terminals sit (``"in.<name>"`` / ``"out.<name>"``). Never part of a result."""
+
+    comments: list[Comment] = Field(default_factory=list)
+    labels: list[Label] = Field(default_factory=list)
+    terminals: dict[Annotated[str, Field(pattern=TERMINAL_PATTERN)], tuple[float, float]] = Field(default_factory=dict)
+
+    @property
+    def empty(self) -> bool:
+        return not (self.comments or self.labels or self.terminals)
+
+
 class Graph(_Model):
     """A flowmc graph. ``path`` (not stored in the file) is where it was loaded from or saved to."""
 
-    schema_version: Literal[1] = SCHEMA_VERSION
+    schema_version: Literal[2] = SCHEMA_VERSION
     title: str = ""
     description: str = ""
     nodes: list[Node] = Field(default_factory=list)
     wires: list[Wire] = Field(default_factory=list)
     interface: Interface | None = None
+    view: View = Field(default_factory=View, description="Comments, labels, terminal places: view state only")
 
     _path: Path | None = PrivateAttr(None)
 
@@ -142,8 +180,9 @@ class Graph(_Model):
         return str(self._path) if self._path is not None else "<graph>"
 
     def fingerprint_json(self) -> str:
-        """Everything that can change a result (not title, description or positions)."""
-        return self.model_dump_json(exclude={"title": True, "description": True, "nodes": {"__all__": {"pos"}}})
+        """Everything that can change a result (not title, description, positions or the view section)."""
+        return self.model_dump_json(exclude={"title": True, "description": True, "view": True,
+                                             "nodes": {"__all__": {"pos"}}})
 
 
 def split_ref(ref: str) -> tuple[str, str]:
@@ -226,6 +265,10 @@ def _canonical(graph: Graph) -> dict[str, Any]:
     data = graph.model_dump(by_alias=True)  # python mode: NaN stays NaN and is refused, not turned into null
     if data["interface"] is None:
         del data["interface"]
+    if graph.view.empty:
+        del data["view"]
+    else:
+        data["view"]["terminals"] = dict(sorted(data["view"]["terminals"].items()))
     for node in data["nodes"]:
         node["params"] = _sorted_keys(node["params"])
     data["nodes"].sort(key=lambda n: n["id"])
@@ -306,5 +349,5 @@ def json_schema() -> dict[str, Any]:
     """JSON Schema of the graph file (what ``flowmc schema`` prints)."""
     schema = Graph.model_json_schema(by_alias=True)
     schema["$id"] = "https://flowmc/graph.schema.json"
-    schema["title"] = "flowmc graph file (schema_version 1)"
+    schema["title"] = f"flowmc graph file (schema_version {SCHEMA_VERSION})"
     return schema

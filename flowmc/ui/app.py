@@ -11,6 +11,8 @@ thread pool.
 
 from __future__ import annotations
 
+import contextlib
+import json
 import sys
 import time
 from pathlib import Path
@@ -31,6 +33,7 @@ from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused
 
 __all__ = ["Editor", "serve_main"]
 
+MAX_TOASTS = 3
 NETWORK_WARNING = ("warning: the editor is listening on {host}: anyone who can reach this machine on the network "
                    "can open it, edit graphs and run the machine (motion, outputs, spindle). Use only on a trusted network.")
 
@@ -51,6 +54,8 @@ class Editor:
         self.messages: list[tuple[str, str]] = []
         self.pending_modal: Any = None
         self._titles: dict[int, str] = {}
+        self._toasts: dict[int, list[Any]] = {}
+        self._page_handlers: dict[str, Callable[[Any, Any], None]] = {}
         self.server = viser.ViserServer(host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
         self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
@@ -77,6 +82,8 @@ class Editor:
     # ------------------------------------------------------------------ layout
     def _build_gui(self) -> None:
         gui = self.server.gui
+        self.channel = gui.add_text("flowmc page events", "", visible=False)
+        self.channel.on_update(self._page_event)
         self.header = gui.add_markdown("")
         self.run_button = gui.add_button("Run", color="green", icon=viser.Icon.PLAYER_PLAY, hint="Validate, then run the graph")
         self.edit_ops = gui.add_button_group("Edit", ("Undo", "Redo", "Fit", "Delete"))
@@ -103,9 +110,25 @@ class Editor:
             command.on_trigger(lambda _e, a=action: self.edit(a))
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
+        viser_internals.install_page(client, self.channel)
         self.canvas.setup_client(client)
         self._titles.pop(client.client_id, None)
         self._refresh_title([client])
+
+    def on_page_event(self, kind: str, handler: Callable[[Any, Any], None]) -> None:
+        """Call ``handler(client, data)`` for page events of ``kind`` (``window.flowmc.send(kind, data)``)."""
+        self._page_handlers[kind] = handler
+
+    def _page_event(self, event: Any) -> None:
+        """One event from the page script. The page is not trusted: malformed events are dropped."""
+        try:
+            message = json.loads(event.target.value)
+            kind, data = message["kind"], message.get("data")
+        except (ValueError, TypeError, KeyError):
+            return
+        handler = self._page_handlers.get(kind) if isinstance(kind, str) else None
+        if handler is not None:
+            handler(event.client, data)
 
     # ------------------------------------------------------------------ messages and refreshes
     def notify(self, kind: str, text: str, client: viser.ClientHandle | None = None) -> None:
@@ -115,8 +138,12 @@ class Editor:
         self.status_line.content = ("⚠ " if kind == "error" else "") + text
         title = "Problem" if kind == "error" else "flowmc"
         for target in [client] if client is not None else list(self.server.get_clients().values()):
-            target.add_notification(title, text, color="red" if kind == "error" else "blue",
-                                    auto_close_seconds=8.0 if kind == "error" else 3.0)
+            shown = self._toasts.setdefault(target.client_id, [])
+            while len(shown) >= MAX_TOASTS:  # the oldest goes: a burst of messages never stacks up
+                with contextlib.suppress(Exception):
+                    shown.pop(0).remove()
+            shown.append(target.add_notification(title, text, color="red" if kind == "error" else "blue",
+                                                  auto_close_seconds=8.0 if kind == "error" else 3.0))
 
     def _on_state(self, kind: str) -> None:
         with self.lock:
@@ -212,9 +239,9 @@ class Editor:
         keep.on_click(lambda _e: modal.close())
         return modal
 
-    def download(self, name: str, data: bytes, client: Any = None) -> None:
+    def download(self, name: str, text: str, client: Any = None) -> None:
         for target in [client] if client is not None else list(self.server.get_clients().values()):
-            target.send_file_download(name, data)
+            viser_internals.download(target, name, text)
 
     def run(self, inputs: dict[str, Any] | None = None, source: str = "run") -> RunRequest | None:
         """Queue a run through the session (the one way to run); None, with the problems shown, when the
@@ -258,7 +285,7 @@ class Editor:
         except FlowmcError as exc:
             self.notify("error", f"G-code export: {exc}", client)
             return None
-        self.download(target.name, text.encode("utf-8"), client)
+        self.download(target.name, text, client)
         self.notify("info", f"wrote {target.name}", client)
         return target
 

@@ -11,7 +11,7 @@ import viser
 
 from flowmc.ui import viser_internals
 
-__all__ = ["FOV", "setup", "frame", "screen_rect_to_world"]
+__all__ = ["FOV", "setup", "frame", "screen_rect_to_world", "screen_px_per_world", "world_at"]
 
 FOV = math.radians(12.0)
 SETTLE_S = 5.0  # the page lays out its panels after it connects: frame again while its size settles
@@ -41,7 +41,9 @@ def frame(client: viser.ClientHandle, box: tuple[float, float, float, float], ma
     w, h = box[2] - box[0] + 2 * margin, box[3] - box[1] + 2 * margin
     width_px, height_px = max(cam.image_width, 200), max(cam.image_height, 200)
     per_px = max(w / width_px, h / height_px)  # world units per pixel
-    dist = max(per_px * height_px / (2 * math.tan(cam.fov / 2)), 2.0)
+    # FOV, not cam.fov: until the browser has applied our field of view, the camera it reports still has its
+    # own (much wider), and framing with that opened about one load in fifteen zoomed in seven times.
+    dist = max(per_px * height_px / (2 * math.tan(FOV / 2)), 2.0)
     cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
     with client.atomic():
         cam.position = (cx, cy, dist)
@@ -56,3 +58,17 @@ def screen_rect_to_world(cam: viser.CameraHandle, screen_min: tuple[float, float
     (u0, v0), (u1, v1) = screen_min, screen_max
     return (cam.position[0] + (2 * u0 - 1) * half_w, cam.position[1] - (2 * v1 - 1) * half_h,
             cam.position[0] + (2 * u1 - 1) * half_w, cam.position[1] - (2 * v0 - 1) * half_h)
+
+
+def screen_px_per_world(cam: viser.CameraHandle) -> float | None:
+    """How many screen pixels one world unit on the canvas plane spans in this view (None before it is known)."""
+    dist, height = float(cam.position[2]), float(cam.image_height)
+    if dist <= 0 or height <= 0:
+        return None
+    return height / (2 * dist * math.tan(cam.fov / 2))
+
+
+def world_at(cam: viser.CameraHandle, u: float, v: float) -> tuple[float, float]:
+    """The canvas-plane point (world x, y) under view coordinates (u, v) (0..1, y down)."""
+    x0, y0, x1, y1 = screen_rect_to_world(cam, (u, v), (u, v))
+    return x0, y1

@@ -23,8 +23,7 @@ if TYPE_CHECKING:
 
 __all__ = ["Extensions"]
 
-VIEW_WIDTH = 600
-VIEW_HEIGHT = 640
+VIEW_WIDTH = 460
 
 
 class Extensions:
@@ -61,9 +60,17 @@ class Extensions:
                 self.front.show_result(result.ok, "; ".join(result.errors))
         if self.view is not None and request.result is not None:
             try:
-                self.view.show_result(request.result, self.session.state.graph)
+                shown = self.view.show_result(request.result, request.plan.graph)
             except Exception as exc:  # noqa: BLE001 - a view that cannot show a result must not break the editor
                 self.editor.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
+                return
+            self._view_has(bool(shown.paths or shown.trajectories or shown.logs))
+
+    def _view_has(self, something: bool) -> None:
+        """Open the docked 3D view when it gets something to show; it starts collapsed, out of the canvas's way."""
+        if something and not self.view_open:
+            self.view_panel.expand()
+        self.view_open = self.view_open or something
 
     # ------------------------------------------------------------------ 3D view
     def _start_view(self, gui: Any) -> None:
@@ -76,9 +83,11 @@ class Extensions:
             return
         self.view_panel = gui.add_panel()
         with self.view_panel.add_tab("3D view"):
-            self.view_html = gui.add_html(embed_html(self.view.url, height=VIEW_HEIGHT))
+            self.view_html = gui.add_html(embed_html(self.view))
         self.view_panel.dock_left()
         self.view_panel.set_width(VIEW_WIDTH)
+        self.view_panel.minimize()
+        self.view_open = False
 
     def _show_log(self, log: Any) -> None:
         """A device operation's log in the 3D view, with what the last run produced."""
@@ -88,6 +97,7 @@ class Extensions:
         shown = view3d_data.collect(result, self.session.state.graph) if result is not None else None
         self.view.show(shown.paths if shown else (), shown.trajectories if shown else (), shown.machine if shown else None,
                        [*(shown.logs if shown else ()), log])
+        self._view_has(True)
 
     # ------------------------------------------------------------------ front panel
     def _interface_key(self) -> str:

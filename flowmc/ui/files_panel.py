@@ -128,7 +128,7 @@ class FilesPanel:
     def download(self, client: Any = None) -> None:
         state = self.state
         name = state.path.name if state.path is not None else state.suggested_name
-        self.host.download(name, dumps(state.graph).encode("utf-8"), client)
+        self.host.download(name, dumps(state.graph), client)
 
     def confirm_discard(self, action: Any, client: Any = None) -> bool:
         """Do ``action`` now, or after the user agrees to lose unsaved changes (a dialog in the browser)."""
