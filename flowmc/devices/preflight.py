@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flowmc.errors import DeviceError, LimitError
+from flowmc.motion.limits import AxisLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.table import Table
@@ -203,7 +204,8 @@ def _check_travel(found: _Found, pos, cols, machine: Machine, seg, rows_t, axes)
 
 def _check_dynamics(found: _Found, pos, period, cols, machine: Machine, seg, rows_t, axes, slack):
     n = pos.shape[1]
-    vmax, amax = machine.column("vmax")[cols], machine.column("amax")[cols]
+    lim = AxisLimits.of(machine, axes)
+    vmax, amax = lim.vmax, lim.amax
     rmax, step = machine.column("max_step_rate")[cols], machine.column("step_mm")[cols]
     v = np.diff(pos, axis=0) / period
     a = np.diff(v, axis=0) / period
@@ -236,7 +238,7 @@ def _check_pulses(found: _Found, st: Steps, cols, machine: Machine, seg, rows_t)
     n = len(cols)
     if st.tick <= 0 or len(st) == 0:
         return np.zeros(n), np.zeros(n)
-    vmax, rmax = machine.column("vmax")[cols], machine.column("max_step_rate")[cols]
+    vmax, rmax = AxisLimits.of(machine, st.axes).vmax, machine.column("max_step_rate")[cols]
     window = max(machine.period, st.tick)
     k = max(int(round(window / st.tick)), 1)  # rows per window
     window = k * st.tick

@@ -30,7 +30,8 @@ import numpy as np
 from flowmc.errors import PlanningError
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
-from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle, machine_limits
+from flowmc.motion.limits import PathLimits
+from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid
 from flowmc.motion.signals import path_signals, segment_start_times
 from flowmc.motion.trajectory import Trajectory
@@ -485,7 +486,8 @@ def plan_lookahead(path: Path, machine: Machine, rule: Literal["arm_weighted", "
                             where="planner")
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
-    cols, _, amax, _ = machine_limits(machine)
+    lim = PathLimits.of(machine)
+    cols, amax = list(lim.cols), lim.amax
     pieces = build_pieces(path, machine, blend_tol=tolerance if rule == "blend" else None)
     period = machine.period
     if profile == "trapezoid":
@@ -514,7 +516,7 @@ def plan_stop_and_go(path: Path, machine: Machine,
     if profile not in STOP_PROFILES:
         raise PlanningError(f"unknown profile {profile!r}; choose one of {', '.join(STOP_PROFILES)}",
                             where="planner")
-    cols = machine_limits(machine)[0]
+    cols = list(PathLimits.of(machine).cols)
     pieces = build_pieces(path, machine)
     cap, accel = _piece_caps(pieces, _RHO_FIXED)
     groups = np.flatnonzero(np.r_[True, pieces.seg[1:] != pieces.seg[:-1]]).tolist()

@@ -14,6 +14,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
+from flowmc.motion.limits import AxisLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.trajectory import Trajectory
@@ -21,7 +22,6 @@ from flowmc.motion.trajectory import Trajectory
 __all__ = [
     "cycle_time",
     "time_ratio",
-    "axis_limits",
     "peak_ratio",
     "corner_spike_ratio",
     "programmed_polyline",
@@ -39,15 +39,6 @@ def cycle_time(traj: Trajectory) -> float:
 def time_ratio(traj: Trajectory, bound: float) -> float:
     """R_T = cycle time / the path's time-optimal bound."""
     return traj.duration / bound
-
-
-def axis_limits(machine: Machine, traj: Trajectory, field: str) -> np.ndarray:
-    """One limit (``vmax``, ``amax`` or ``jmax``) for each of the trajectory's axes, by axis name."""
-    by_name = {ax.name.upper(): getattr(ax, field) for ax in machine.axes}
-    missing = [name for name in traj.axes if name.upper() not in by_name]
-    if missing:
-        raise ValueError(f"trajectory axes {missing} are not machine axes {machine.names}")
-    return np.array([by_name[name.upper()] for name in traj.axes], dtype=float)
 
 
 def _corner_rows(traj: Trajectory, corner_times, n_rows: int) -> np.ndarray:
@@ -194,11 +185,12 @@ def trajectory_report(traj: Trajectory, path: Path, machine: Machine, bound: flo
                       corner_times=()) -> dict:
     """Cycle time, ratio to ``bound``, peak per-axis velocity and acceleration over their limits
     (corners apart), the corner spike, and the contour error against the programmed path."""
-    amax = axis_limits(machine, traj, "amax")
+    lim = AxisLimits.of(machine, traj.axes)
+    amax = lim.amax
     out = {
         "cycle_time": cycle_time(traj),
         "time_ratio": time_ratio(traj, bound) if bound else float("nan"),
-        "peak_velocity": peak_ratio(traj, axis_limits(machine, traj, "vmax"), order=1),
+        "peak_velocity": peak_ratio(traj, lim.vmax, order=1),
         "peak_accel": peak_ratio(traj, amax, order=2, exclude_times=corner_times),
         "corner_spike": corner_spike_ratio(traj, amax, corner_times),
         "contour_error": contour_error(traj.positions, programmed_polyline(path, traj.axes)),

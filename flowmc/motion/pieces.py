@@ -7,7 +7,8 @@ because curves are cut into stretches that each have one curvature bound. Every 
 index of the segment it belongs to (a blend's first half belongs to the segment before the corner,
 its second half to the one after), so any setpoint can name its segment.
 
-Limits are per axis (the machine's vmax/amax/jmax). On a line with unit direction u the path may
+Limits are per axis (flowmc.motion.limits: the machine's vmax/amax/jmax, and every segment's feed,
+rapids included, as its path-speed cap). On a line with unit direction u the path may
 move at min_i vmax_i/|u_i| and accelerate at min_i amax_i/|u_i|, which is exact. On curved pieces the
 acceleration vector has a normal part v^2*kappa as well; planners keep |a_t * t + a_n * n| <= A where
 A is the smallest amax among the axes the piece moves, which keeps every axis within its own limit.
@@ -21,10 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from flowmc.errors import PlanningError
+from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Arc, Dwell, Line, Path, PLANES, describe_segment
 
-__all__ = ["LINE", "ARC", "CURVE", "DWELL", "REVERSAL", "Pieces", "build_pieces", "corner_angle", "machine_limits"]
+__all__ = ["LINE", "ARC", "CURVE", "DWELL", "REVERSAL", "Pieces", "build_pieces", "corner_angle"]
 
 LINE, ARC, CURVE, DWELL = 0, 1, 2, 3
 
@@ -40,23 +42,6 @@ def corner_angle(t_in: np.ndarray, t_out: np.ndarray) -> np.ndarray:
     diff = np.linalg.norm(t_out - t_in, axis=-1)
     summ = np.linalg.norm(t_out + t_in, axis=-1)
     return 2.0 * np.arctan2(diff, summ)
-
-
-def machine_limits(machine: Machine) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray]:
-    """Path columns the machine drives (X, Y, Z present on it) and vmax/amax/jmax as 3-vectors.
-
-    Columns the machine lacks get infinite limits; a path must not move along them.
-    """
-    cols, vmax, amax, jmax = [], np.full(3, np.inf), np.full(3, np.inf), np.full(3, np.inf)
-    for ax in machine.axes:
-        k = "XYZ".find(ax.name.upper())
-        if k < 0 or len(ax.name) != 1:
-            continue
-        cols.append(k)
-        vmax[k], amax[k], jmax[k] = ax.vmax, ax.amax, ax.jmax
-    if not cols:
-        raise PlanningError("the machine has none of the axes X, Y, Z", where="machine")
-    return cols, vmax, amax, jmax
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,30 +147,6 @@ class _Rows:
         )
 
 
-def _line_limits(u, feed, vmax, amax, jmax):
-    """Path speed, acceleration and jerk limits along unit directions u (n, 3): min_i limit_i / |u_i|."""
-    mag = np.abs(u)
-    moving = mag > 1e-12
-    safe = np.where(moving, mag, 1.0)
-    lim = lambda x: np.min(np.where(moving, x / safe, np.inf), axis=1)  # noqa: E731
-    return np.minimum(feed, lim(vmax)), lim(amax), lim(jmax)
-
-
-def _curved_limits(axes_moved, feed, vmax, amax, jmax):
-    """Speed cap, acceleration norm budget and jerk of curved pieces moving the given axes (n, 3)."""
-    moved = np.asarray(axes_moved, dtype=bool).reshape(-1, 3)
-    lim = lambda x: np.min(np.broadcast_to(x, moved.shape), axis=1, initial=np.inf, where=moved)  # noqa: E731
-    return np.minimum(feed, lim(vmax)), lim(amax), lim(jmax)
-
-
-def _feed(seg, i) -> float:
-    if seg.rapid:
-        return math.inf
-    if not (isinstance(seg.feed, (int, float)) and seg.feed > 0 and math.isfinite(seg.feed)):
-        raise PlanningError(f"feed must be > 0 mm/s, got {seg.feed!r}", where=describe_segment(i, seg.source))
-    return float(seg.feed)
-
-
 def _check_axes(path: Path, cols: list[int], machine: Machine) -> None:
     missing = [k for k in range(3) if k not in cols]
     if not missing or not len(path):
@@ -217,7 +178,7 @@ class _Blends:
     jerk: np.ndarray
 
 
-def _blends(segs, is_line, u, lengths, feeds, tol: float | None, vmax, amax, jmax, period: float) -> _Blends:
+def _blends(segs, is_line, u, lengths, feeds, tol: float | None, lim: PathLimits) -> _Blends:
     """Trim d and radius R of the tangent arc at each line-line corner.
 
     R keeps the arc within ``tol`` of the corner point (R (1/cos(alpha/2) - 1) <= tol) and, with
@@ -228,7 +189,9 @@ def _blends(segs, is_line, u, lengths, feeds, tol: float | None, vmax, amax, jma
     u_in, u_out = u[:-1], u[1:]
     alpha = corner_angle(u_in, u_out)
     moved = (np.abs(u_in) + np.abs(u_out)) > 1e-12
-    v_lim, a_lim, j_lim = _curved_limits(moved, np.minimum(feeds[:-1], feeds[1:]), vmax, amax, jmax)
+    v_lim, a_lim, j_lim = lim.over(moved)
+    v_lim = np.minimum(v_lim, np.minimum(feeds[:-1], feeds[1:]))
+    period = lim.period
     trim = np.zeros(n - 1)
     radius = np.zeros(n - 1)
     if tol is not None and n > 1:
@@ -258,7 +221,8 @@ def build_pieces(path: Path, machine: Machine, blend_tol: float | None = None) -
 
     Raises PlanningError naming the segment for gaps, bad feeds, or motion on axes the machine lacks.
     """
-    cols, vmax, amax, jmax = machine_limits(machine)
+    lim = PathLimits.of(machine)
+    cols = list(lim.cols)
     segs = path.segments
     if not segs:
         raise PlanningError("the path has no segments", where="path")
@@ -269,14 +233,16 @@ def build_pieces(path: Path, machine: Machine, blend_tol: float | None = None) -
             f"{np.round(segs[i - 1].end, 6).tolist()}", where=describe_segment(i, segs[i].source))
     lengths = np.array([seg.length for seg in segs], dtype=float)
     is_line = np.array([isinstance(seg, Line) for seg in segs]) & (lengths > _EPS_LEN)
-    feeds = np.array([math.inf if isinstance(seg, Dwell) else _feed(seg, i) for i, seg in enumerate(segs)])
+    feeds = np.array([math.inf if isinstance(seg, Dwell) else segment_feed(seg, describe_segment(i, seg.source))
+                      for i, seg in enumerate(segs)])
     u = np.zeros((len(segs), 3))
     if is_line.any():
         ends = np.array([seg.end for seg in segs])
         starts = np.array([seg.start for seg in segs])
         u[is_line] = (ends[is_line] - starts[is_line]) / lengths[is_line, None]
-    line_v, line_a, line_j = _line_limits(u, feeds, vmax, amax, jmax)
-    bl = _blends(segs, is_line, u, lengths, feeds, blend_tol, vmax, amax, jmax, machine.period)
+    line_v, line_a, line_j = lim.along(u)
+    line_v = np.minimum(line_v, feeds)
+    bl = _blends(segs, is_line, u, lengths, feeds, blend_tol, lim)
     trims = np.r_[0.0, bl.trim, 0.0]  # trims[i] at segment i's start, trims[i + 1] at its end
 
     rows = _Rows()
@@ -298,9 +264,9 @@ def build_pieces(path: Path, machine: Machine, blend_tol: float | None = None) -
                 rows.add(kind=LINE, seg=i, length=length, origin=seg.start + u[i] * trims[i], u=u[i],
                          vmax=line_v[i], accel=line_a[i], jerk=line_j[i], t_start=u[i], t_end=u[i])
         elif isinstance(seg, Arc):
-            _add_arc(rows, seg, i, feeds[i], vmax, amax, jmax)
+            _add_arc(rows, seg, i, feeds[i], lim)
         else:
-            _add_curve(rows, seg, i, feeds[i], vmax, amax, jmax)
+            _add_curve(rows, seg, i, feeds[i], lim)
         if trims[i + 1] > 0:
             _add_blend_half(rows, bl, i, i, second=False)
     rows.mark_stop()
@@ -318,14 +284,15 @@ def _add_blend_half(rows: _Rows, bl: _Blends, k: int, tag: int, *, second: bool)
              t_end=bl.u_out[k] if second else bl.mid[k])
 
 
-def _add_arc(rows, seg: Arc, i, feed, vmax, amax, jmax):
+def _add_arc(rows, seg: Arc, i, feed, lim: PathLimits):
     iu, iv = PLANES[seg.normal_axis][1]
     e1, e2, w = np.eye(3)[iu], np.eye(3)[iv], np.eye(3)[seg.normal_axis]
     r, sweep, rise = seg.radius, seg.sweep, seg.rise
     pitch = rise / abs(sweep)
     kappa = r / (r * r + pitch * pitch)
     moved = e1 + e2 + (w if abs(rise) > 1e-12 else 0.0)
-    v, a, j = (float(x[0]) for x in _curved_limits(moved > 0, feed, vmax, amax, jmax))
+    v, a, j = (float(x[0]) for x in lim.over(moved > 0))
+    v = min(v, feed)
     n = int(min(_MAX_SUBPIECES, max(1, math.ceil(seg.length / _ARC_PIECE))))
     center = seg.center.copy()
     for k in range(n):
@@ -335,7 +302,7 @@ def _add_arc(rows, seg: Arc, i, feed, vmax, amax, jmax):
                  vmax=v, accel=a, jerk=j, t_start=seg.tangent_at(s_a), t_end=seg.tangent_at(s_b))
 
 
-def _add_curve(rows, seg, i, feed, vmax, amax, jmax):
+def _add_curve(rows, seg, i, feed, lim: PathLimits):
     length = seg.length
     n = int(min(_MAX_SUBPIECES, max(1, math.ceil(length / _CURVE_PIECE))))
     m = 16 * n
@@ -347,7 +314,8 @@ def _add_curve(rows, seg, i, feed, vmax, amax, jmax):
     padded = np.maximum(kappa_iv, np.maximum(np.r_[kappa_iv[1:], 0.0], np.r_[0.0, kappa_iv[:-1]]))
     kappa = 1.02 * padded.reshape(n, 16).max(axis=1)
     moved = np.max(np.abs(tan), axis=0) > 1e-9
-    v, a, j = (float(x[0]) for x in _curved_limits(moved, feed, vmax, amax, jmax))
+    v, a, j = (float(x[0]) for x in lim.over(moved))
+    v = min(v, feed)
     for k in range(n):
         s_a, s_b = length * k / n, length * (k + 1) / n
         rows.add(kind=CURVE, seg=i, length=s_b - s_a, origin=seg.point_at(s_a), seg_s0=s_a, kappa=kappa[k],

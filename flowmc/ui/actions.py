@@ -30,7 +30,7 @@ class Actions:
     def state(self) -> Any:
         return self.editor.state
 
-    def _rects(self, keys: list[str] | None = None) -> dict[str, arrange.Rect]:
+    def rects(self, keys: list[str] | None = None) -> dict[str, arrange.Rect]:
         """Canvas-pixel rectangles of nodes, terminals and notes (all, or ``keys``)."""
         canvas, s = self.editor.canvas, layout.SCALE
         out = {b.node_id: arrange.Rect(b.x / s, -b.y / s, b.w / s, b.h / s) for b in canvas.boxes}
@@ -67,7 +67,7 @@ class Actions:
             x0, y0 = min(i.pos[0] for i in items), min(i.pos[1] for i in items)
             size = (max(i.pos[0] for i in items) - x0 + 220.0, max(i.pos[1] for i in items) - y0 + 120.0)
             centre = near or self.editor.canvas.view_centre()
-            at = arrange.free_spot(self._rects().values(), size, centre)
+            at = arrange.free_spot(self.rects().values(), size, centre)
             try:
                 nodes = self.state.paste(text, at)
             except GraphError as exc:
@@ -80,7 +80,7 @@ class Actions:
         """Copy the selection and paste it beside itself."""
         with self.editor.lock:
             keys = [*self.state.selected_nodes, *self.state.selected_notes]
-            rects = self._rects(keys)
+            rects = self.rects(keys)
             text = self.state.copy_selection()
             if not rects or text is None:
                 self.editor.notify("info", "select nodes to duplicate")
@@ -95,7 +95,7 @@ class Actions:
         """Layered layout of the whole graph (one undo step), then frame it."""
         with self.editor.lock:
             keys = [b.node_id for b in self.editor.canvas.boxes]
-            rects = self._rects(keys)
+            rects = self.rects(keys)
             edges = [(self._owner(a), self._owner(b)) for a, b in self.state.wire_keys()]
             places = arrange.auto_layout(rects, edges)
             self.state.record()
@@ -121,7 +121,7 @@ class Actions:
 
     def align(self, how: str) -> None:
         with self.editor.lock:
-            rects = self._rects([*self.state.selected_nodes, *self.state.selected_notes])
+            rects = self.rects([*self.state.selected_nodes, *self.state.selected_notes])
             if len(rects) < 2:
                 self.editor.notify("info", "select two or more nodes to align them")
                 return
@@ -136,14 +136,14 @@ class Actions:
     def add_note(self, kind: str) -> str:
         """A comment around the selected nodes (or at a free spot), or a label at a free spot; selected."""
         with self.editor.lock:
-            rects = self._rects(self.state.selected_nodes)
+            rects = self.rects(self.state.selected_nodes)
             if kind == "comment" and rects:
                 left, top = min(r.x for r in rects.values()) - 20, min(r.y for r in rects.values()) - layout.COMMENT_BAR - 20
                 size = (max(r.x + r.w for r in rects.values()) + 20 - left, max(r.y + r.h for r in rects.values()) + 20 - top)
                 key = self.state.add_note("comment", "Comment", (left, top), size)
             else:
                 size = (320.0, 200.0) if kind == "comment" else (160.0, 24.0)
-                at = arrange.free_spot(self._rects().values(), size, self.editor.canvas.view_centre())
+                at = arrange.free_spot(self.rects().values(), size, self.editor.canvas.view_centre())
                 key = self.state.add_note(kind, "Comment" if kind == "comment" else "Label", at,
                                           size if kind == "comment" else None)
             self.state.select(notes=[key])

@@ -1,7 +1,8 @@
-"""The editor: ``flowmc serve [FILE]`` starts it. One viser server holds the node canvas (the scene)
-and the side panel (Run, edit buttons, and tabs for the inspector, the palette, files, problems,
-the front panel and the device); the 3D toolpath view runs on a second server shown in a docked
-panel (``extensions``).
+"""The editor: ``flowmc serve [FILE]`` starts it. One viser server holds the node canvas (the scene),
+the palette and examples docked on the left, and the side panel on the right (Run, edit and canvas
+buttons, and tabs for the selection and its params, problems, files, the front panel and the
+device); the 3D toolpath view runs on a second server shown in a panel docked beside the palette,
+collapsed until it has something to show (``extensions``). The canvas gets the rest of the page.
 
 The editor edits and runs graphs only through the core's public API, by way of its
 ``EditorSession`` (document, runtime, run queue, results, device session). Panels get the editor as
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import socket
 import sys
 import time
 from pathlib import Path
@@ -22,18 +24,29 @@ import viser
 
 from flowmc.errors import FlowmcError
 from flowmc.graph import load
-from flowmc.ui import viser_internals
+from flowmc.ui import arrange, camera, layout, viser_internals
+from flowmc.ui.actions import Actions
 from flowmc.ui.canvas import Canvas
+from flowmc.ui.examples import ExamplesPanel
 from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
+from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
-from flowmc.ui.panels import PalettePanel, ProblemsPanel, free_spot
+from flowmc.ui.interface_panel import InterfacePanel
+from flowmc.ui.panels import PalettePanel, ProblemsPanel
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
+from flowmc.ui.text import escape_md, md, plain
 
 __all__ = ["Editor", "serve_main"]
 
 MAX_TOASTS = 3
+COMMANDS = (("Undo", "Z", "cmd/ctrl", "Undo"), ("Redo", "Z", "cmd/ctrl+shift", "Redo"),
+            ("Delete selection", "delete", None, "Delete"), ("Fit to view", "F", None, "Fit"),
+            ("Save", "S", "cmd/ctrl", "Save"), ("Run", "enter", "cmd/ctrl", "Run"),
+            ("Copy", "C", "cmd/ctrl", "Copy"), ("Cut", "X", "cmd/ctrl", "Cut"), ("Duplicate", "D", "cmd/ctrl", "Duplicate"),
+            ("Select all", "A", "cmd/ctrl", "Select all"), ("Auto-layout", "L", "shift", "Layout"),
+            ("Add a comment", "C", "shift", "Comment"), ("Add a label", "T", "shift", "Label"))
 NETWORK_WARNING = ("warning: the editor is listening on {host}: anyone who can reach this machine on the network "
                    "can open it, edit graphs and run the machine (motion, outputs, spindle). Use only on a trusted network.")
 
@@ -45,22 +58,24 @@ class Editor:
 
     def __init__(self, path: str | Path | None = None, *, host: str = "127.0.0.1", port: int = 8080,
                  folder: str | Path | None = None, extensions: bool = True, devices: DeviceAccess | None = None,
-                 jobs: JobAccess | None = None):
+                 jobs: JobAccess | None = None, guard: Guard | None = None):
         graph = load(path) if path is not None else None
         self.session = EditorSession(graph, folder=folder, devices=devices, jobs=jobs)
         self.lock, self.state = self.session.lock, self.session.state
         self.session.state.plan()  # bind the graph once before the panels look at node types
         self.host = host
+        self.guard = guard or Guard(host)  # this launch's token; only the editor's own page may connect
         self.messages: list[tuple[str, str]] = []
         self.pending_modal: Any = None
         self._titles: dict[int, str] = {}
         self._toasts: dict[int, list[Any]] = {}
         self._page_handlers: dict[str, Callable[[Any, Any], None]] = {}
-        self.server = viser.ViserServer(host=host, port=port, label="flowmc", verbose=False)
+        self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
-        self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
+        self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="medium")
         self.server.gui.main_panel.dock_right()
         self.canvas = Canvas(self.server, self.state, self.notify, self.lock, status=self.session.status)
+        self.actions = Actions(self)
         self._build_gui()
         self.extensions = Extensions(self) if extensions else None
         self.session.on_progress(self.canvas.sync)
@@ -76,38 +91,66 @@ class Editor:
 
     @property
     def url(self) -> str:
+        """The address to open, with this launch's secret token (without it the server refuses)."""
         host = "127.0.0.1" if self.host in ("0.0.0.0", "", "::") else self.host
-        return f"http://{host}:{self.server.get_port()}"
+        return self.guard.url(host, self.server.get_port())
 
     # ------------------------------------------------------------------ layout
     def _build_gui(self) -> None:
         gui = self.server.gui
-        self.channel = gui.add_text("flowmc page events", "", visible=False)
+        self.channel = gui.add_text(viser_internals.CHANNEL_LABEL, "")  # the page script hides its row
         self.channel.on_update(self._page_event)
         self.header = gui.add_markdown("")
         self.run_button = gui.add_button("Run", color="green", icon=viser.Icon.PLAYER_PLAY, hint="Validate, then run the graph")
-        self.edit_ops = gui.add_button_group("Edit", ("Undo", "Redo", "Fit", "Delete"))
+        self.edit_ops = gui.add_button_group("Edit", ("Undo", "Redo", "Delete"))
+        self.clip_ops = gui.add_button_group("Clipboard", ("Copy", "Cut", "Paste"))
+        self.canvas_ops = gui.add_button_group("Canvas", ("Fit", "Layout"))
+        self.note_ops = gui.add_button_group("Add", ("Comment", "Label"))
         self.status_line = gui.add_markdown("")
         group = gui.add_tab_group()
         self.tabs = {key: group.add_tab(label) for key, label in
-                     (("node", "Node"), ("add", "Add"), ("files", "Files"), ("problems", "Problems"))}
+                     (("node", "Node"), ("problems", "Problems"), ("files", "Files"))}
         with self.tabs["node"]:
             self.selection = SelectionPanel(self)
+            self.interface = InterfacePanel(self)
         self.inspector = Inspector(gui, self.tabs["node"], self.state, self.lock, on_structure=self.canvas.sync)
-        with self.tabs["add"]:
-            self.palette = PalettePanel(self)
         with self.tabs["files"]:
             self.files = FilesPanel(self)
+            self.dark = gui.add_checkbox("Dark theme", False, hint="Dark page and canvas")
         with self.tabs["problems"]:
             self.problems = ProblemsPanel(self)
         self.tab_group = group
+        self.palette_panel = gui.add_panel()
+        self.palette = PalettePanel(self, self.palette_panel.add_tab("Nodes", viser.Icon.LAYOUT_GRID_ADD))
+        with self.palette_panel.add_tab("Examples", viser.Icon.BOOK):
+            self.examples = ExamplesPanel(self)
+        self.palette_panel.dock_above(gui.main_panel)  # the right column: palette on top, the side panel below
         self.run_button.on_click(lambda _e: self.run())
-        self.edit_ops.on_click(lambda e: self.edit(e.target.value))
-        for label, key, mod, action in (("Undo", "Z", "cmd/ctrl", "Undo"), ("Redo", "Z", "cmd/ctrl+shift", "Redo"),
-                                        ("Delete selection", "delete", None, "Delete"), ("Fit to view", "F", None, "Fit"),
-                                        ("Save", "S", "cmd/ctrl", "Save"), ("Run", "enter", "cmd/ctrl", "Run")):
+        for group in (self.edit_ops, self.clip_ops, self.canvas_ops, self.note_ops):
+            group.on_click(lambda e: self.edit(e.target.value))
+        self.dark.on_update(lambda _e: self.set_theme("dark" if self.dark.value else "light"))
+        for label, key, mod, action in COMMANDS:
             command = gui.add_command(label, hotkey=key, modifier=mod)
             command.on_trigger(lambda _e, a=action: self.edit(a))
+        self.on_page_event("paste", lambda _client, data: self.actions.paste_text(data if isinstance(data, str) else None))
+        self.on_page_event("palette-drop", self._palette_drop)
+
+    def set_theme(self, name: str) -> None:
+        """Light or dark: the page (viser's theme) and the canvas."""
+        self.gui.configure_theme(show_share_button=False, show_logo=False, control_width="medium", dark_mode=name == "dark")
+        with self.lock:
+            self.canvas.set_theme(name)
+
+    def _palette_drop(self, client: Any, data: Any) -> None:
+        """A palette entry dragged onto the canvas: ``data`` is its label and where it was let go (0..1 of the view)."""
+        try:
+            label, u, v = data["label"], float(data["u"]), float(data["v"])
+        except (TypeError, KeyError, ValueError):
+            return
+        if not (0.0 <= u <= 1.0 and 0.0 <= v <= 1.0):
+            return
+        at = layout.to_canvas(*camera.world_at(client.camera, u, v))
+        self.palette.dropped(label, at)
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         viser_internals.install_page(client, self.channel)
@@ -135,18 +178,25 @@ class Editor:
         """Tell the user: the line under the Run button, and a notification in the browser."""
         self.messages.append((kind, text))
         del self.messages[:-200]
-        self.status_line.content = ("⚠ " if kind == "error" else "") + text
+        self.status_line.content = ("⚠ " if kind == "error" else "") + escape_md(text)
         title = "Problem" if kind == "error" else "flowmc"
         for target in [client] if client is not None else list(self.server.get_clients().values()):
             shown = self._toasts.setdefault(target.client_id, [])
             while len(shown) >= MAX_TOASTS:  # the oldest goes: a burst of messages never stacks up
                 with contextlib.suppress(Exception):
                     shown.pop(0).remove()
-            shown.append(target.add_notification(title, text, color="red" if kind == "error" else "blue",
+            shown.append(target.add_notification(title, plain(text), color="red" if kind == "error" else "blue",
                                                   auto_close_seconds=8.0 if kind == "error" else 3.0))
 
     def _on_state(self, kind: str) -> None:
         with self.lock:
+            if kind == "selection":  # the fast path: recolour, say what is selected, then build its form
+                self.canvas.sync_selection()
+                with self.server.atomic():
+                    self.selection.show()
+                self.server.flush()
+                self.settle()
+                return
             if kind in ("graph", "document"):
                 self.canvas.status.clear()
             self.canvas.sync()
@@ -168,9 +218,11 @@ class Editor:
                 if not self.inspector.editing:
                     self.inspector.show()
                 self._refresh_side()
+            self.server.flush()
 
     def _refresh_side(self) -> None:
         self.selection.show()
+        self.interface.show()
         self.problems.show(self.state.issues(), self.session.run_errors())
         self._refresh_title()
 
@@ -185,8 +237,8 @@ class Editor:
         name = state.path.name if state.path is not None else state.suggested_name + " (not saved)"
         mark = " ●" if state.dirty else ""
         opened_from = " ← ".join(reversed(state.parents))
-        self.header.content = f"### {name}{mark}" + (f"\nopened from {opened_from}" if opened_from else "")
-        title = f"{'● ' if mark else ''}{name} — flowmc"
+        self.header.content = md("### {}{}", name, mark) + (md("\nopened from {}", opened_from) if opened_from else "")
+        title = plain(f"{'● ' if mark else ''}{name} — flowmc", 200)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             if self._titles.get(client.client_id) != title:
                 self._titles[client.client_id] = title
@@ -194,19 +246,23 @@ class Editor:
 
     # ------------------------------------------------------------------ actions
     def edit(self, action: str) -> None:
+        """An edit command by name (the buttons' labels and the hotkeys' actions)."""
+        simple = {"Fit": self.canvas.fit, "Save": self.files.save, "Run": self.run, "Copy": self.actions.copy,
+                  "Cut": lambda: self.actions.copy(cut=True), "Paste": lambda: self.actions.paste_text(None),
+                  "Duplicate": self.actions.duplicate, "Select all": self.actions.select_all,
+                  "Layout": self.actions.auto_layout, "Comment": lambda: self.actions.add_note("comment"),
+                  "Label": lambda: self.actions.add_note("label")}
         with self.lock:
             if action == "Undo" and not self.state.undo():
                 self.notify("info", "nothing to undo")
             elif action == "Redo" and not self.state.redo():
                 self.notify("info", "nothing to redo")
-            elif action == "Fit":
-                self.canvas.fit()
             elif action == "Delete" and not self.state.delete_selection():
                 self.notify("info", "nothing selected to delete")
-            elif action == "Save":
-                self.files.save()
-            elif action == "Run":
-                self.run()
+            elif action in simple:
+                simple[action]()
+            elif action.startswith("Align:"):
+                self.actions.align(action.partition(":")[2])
 
     def select_node(self, node_id: str) -> None:
         with self.lock:
@@ -214,10 +270,15 @@ class Editor:
                 self.state.select(nodes=[node_id])
 
     def add_node(self, type_id: str, params: dict[str, Any], at: tuple[float, float] | None = None) -> str:
-        """Add a node at the free spot nearest ``at`` (canvas pixels; default the middle of the view), selected."""
+        """Add a node with its centre at the free spot nearest ``at`` (canvas pixels; default the middle of the
+        view), overlapping no node, terminal or note, and select it."""
         with self.lock:
-            x, y = free_spot(self.canvas.boxes, at if at is not None else self.canvas.view_centre())
-            node_id = self.state.add_node(type_id, (x, y), params)
+            centre = at if at is not None else self.canvas.view_centre()
+            node_id = self.state.add_node(type_id, centre, params)
+            box = self.canvas.by_id.get(node_id)
+            size = (box.w / layout.SCALE, box.h / layout.SCALE) if box is not None else (200.0, 120.0)
+            taken = [r for k, r in self.actions.rects().items() if k != node_id]
+            self.state.move_nodes({node_id: arrange.free_spot(taken, size, centre)}, record=False)
             self.state.select(nodes=[node_id])
             return node_id
 
@@ -252,7 +313,7 @@ class Editor:
                 self.problems.show(request.issues, {})
                 self.notify("error", request.message)
                 return None
-            self.status_line.content = "running…" if source == "run" else f"running ({source})…"
+            self.status_line.content = "running…" if source == "run" else md("running ({})…", source)
             return request
 
     def wait(self, timeout: float = 60.0) -> Any:
@@ -268,7 +329,7 @@ class Editor:
             errors = self.session.run_errors()
             self.problems.show(self.state.issues(), errors)
             if request.source != "run":
-                self.status_line.content = f"{request.source}: " + ("done" if result.ok else "a node failed")
+                self.status_line.content = md("{}: {}", request.source, "done" if result.ok else "a node failed")
             elif result.ok:
                 self.notify("info", f"run done in {request.seconds:.2f} s: {len(result.executed)} ran, {len(result.cached)} cached")
             else:
@@ -302,10 +363,13 @@ def serve_main(args: Any, *, devices: DeviceAccess | None = None, jobs: JobAcces
     The command line hands in the device session (and job runner) the editor shares with its panels."""
     host, port = getattr(args, "host", "127.0.0.1"), getattr(args, "port", 8080)
     file = getattr(args, "file", None)
-    if host not in ("127.0.0.1", "localhost", "::1"):
+    if not is_loopback(host):
         print(NETWORK_WARNING.format(host=host), file=sys.stderr)
     editor = Editor(file, host=host, port=port, folder=None if file else Path.cwd(), devices=devices, jobs=jobs)
     print(f"flowmc editor: {editor.url}" + (f"  ({file})" if file else ""), flush=True)
+    if not is_loopback(host):
+        name = socket.gethostname() if host in ("0.0.0.0", "::", "") else host
+        print(f"  from other machines: {editor.guard.url(name, editor.server.get_port())}", flush=True)
     try:
         while True:
             time.sleep(3600)

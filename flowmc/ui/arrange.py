@@ -72,12 +72,15 @@ def overlaps(rects: dict[str, Rect], gap: float = 0.0) -> list[tuple[str, str]]:
 
 
 def _layers(dag: nx.DiGraph) -> dict[str, int]:
+    """Column of each node: its longest path from a source, pulled right next to its first consumer;
+    interface terminals (``@in:`` / ``@out:`` ids) take the first and the last column."""
     layer = {n: k for k, gen in enumerate(nx.topological_generations(dag)) for n in gen}
-    for n in reversed(list(nx.topological_sort(dag))):  # pull producers right, next to their first consumer
+    for n in reversed(list(nx.topological_sort(dag))):
         succ = [layer[s] for s in dag.successors(n)]
-        if succ:
+        if succ and not n.startswith("@in:"):
             layer[n] = max(layer[n], min(succ) - 1)
-    return layer
+    last = max(layer.values()) + 1
+    return {n: last if n.startswith("@out:") else k for n, k in layer.items()}
 
 
 def _barycenter(order: list[list[str]], neighbours: dict[str, list[str]]) -> None:

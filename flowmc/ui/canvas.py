@@ -18,7 +18,6 @@ from typing import Any, Callable
 import numpy as np
 import viser
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
 from flowmc.ui import camera, layout
@@ -128,14 +127,14 @@ class Canvas:
         if node.type == "subgraph":
             return f"{node.id} · {node.params.get('file', 'sub-graph')}"
         try:
-            return f"{node.id} · {registry.lookup(node.type, self.state.base_dir).title}"
+            return f"{node.id} · {self.state.runtime.registry.lookup(node.type, self.state.base_dir).title}"
         except GraphError:
             return f"{node.id} · {node.type} (unknown type)"
 
     def _preview(self, node: Any) -> list[str]:
         """The first rows of the node's first table param (segment rows, machine axes)."""
         try:
-            cls = registry.lookup(node.type, self.state.base_dir)
+            cls = self.state.runtime.registry.lookup(node.type, self.state.base_dir)
         except GraphError:
             return []
         for spec in form_fields(cls.Params.model_json_schema()):
@@ -151,7 +150,7 @@ class Canvas:
         wired = {w.to for w in state.graph.wires}
         boxes = []
         for n in state.graph.nodes:
-            ports = node_ports(n, state.base_dir, plan)
+            ports = node_ports(n, state.runtime.registry, state.base_dir, plan)
             ins = [(p, draw.port_label(p, n.params, f"{n.id}.{p.name}" in wired)) for p in ports.inputs]
             outs = [(p, p.name) for p in ports.outputs]
             boxes.append(layout.node_box(n.id, n.pos, ins, outs, self._title(n), self._preview(n)))

@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 
 from flowmc.graph import Graph, Interface, InterfaceInput, InterfaceOutput
-from flowmc.registry import PORT_TYPES
+from flowmc.ports import PORT_TYPES
 
 __all__ = ["add_input", "add_output", "remove", "feed", "unfeed", "take_from", "rename", "terminal_wires"]
 

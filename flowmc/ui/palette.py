@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import load
 
@@ -74,8 +73,8 @@ def _ports_text(inputs: list[dict], outputs: list[dict]) -> str:
     return " · ".join(p for p in parts if p)
 
 
-def palette_items(graph_dir: Any = None, exclude: Path | None = None) -> list[PaletteItem]:
-    """Every node type (``describe_all``: registered types, then ``lib.*`` graphs) and the graph files
+def palette_items(registry: Any, graph_dir: Any = None, exclude: Path | None = None) -> list[PaletteItem]:
+    """Every node type of ``registry`` (``describe_all``: types, then ``lib.*`` graphs) and the graph files
     beside the open graph (``exclude``: the open graph itself)."""
     items = [PaletteItem(d["type_id"], d["title"], d["category"], d["description"], ports=_ports_text(d["inputs"], d["outputs"]))
              for d in registry.describe_all(graph_dir)]

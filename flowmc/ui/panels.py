@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 from flowmc.graph import Issue
 from flowmc.ui import canvas_draw
 from flowmc.ui.palette import PaletteItem, categories, palette_items, search
+from flowmc.ui.text import md, plain
 
 if TYPE_CHECKING:
     from flowmc.ui.session import PanelHost
@@ -17,20 +18,17 @@ MAX_PROBLEMS = 25
 
 
 class PalettePanel:
-    """The node palette, built in the container that is current: a search box and one button per
+    """The node palette, built in ``container`` (a tab): a search box and one button per
     entry, in category folders (or, while searching, the matches best first). A click adds the node
     at a free spot in the middle of the view; dragging a button onto the canvas adds it where it is
     dropped (the page script sends ``palette-drop``). ``buttons`` is keyed by ``PaletteItem.key``
     (``path.translate``, ``lib.pocket``, ``subgraph:part.flowmc.json``)."""
 
-    def __init__(self, host: "PanelHost"):
-        self.host = host
+    def __init__(self, host: "PanelHost", container: Any):
+        self.host, self.container = host, container
         gui = host.gui
-        gui.add_html('<div data-flowmc-palette="1" style="font-size:12px;opacity:.75">'
-                     'Click to add at the middle of the view, or drag onto the canvas.</div>')
-        self.search = gui.add_text("Search", "", hint="Part of a name, category, description or port type (e.g. Trajectory)")
-        self.count = gui.add_markdown("")
-        self.root = gui.add_folder("Nodes", expand_by_default=True)
+        with container:
+            self._build(gui)
         self.folders: list[Any] = []
         self.buttons: dict[str, Any] = {}
         self.by_label: dict[str, PaletteItem] = {}
@@ -38,32 +36,38 @@ class PalettePanel:
         self.search.on_update(lambda _e: self.refresh(reload=False))
         self.refresh()
 
+    def _build(self, gui: Any) -> None:
+        gui.add_html('<div data-flowmc-palette="1" style="font-size:12px;opacity:.75">'
+                     'Click to add at the middle of the view, or drag onto the canvas.</div>')
+        self.search = gui.add_text("Search", "", hint="Part of a name, category, description or port type (e.g. Trajectory)")
+        self.count = gui.add_markdown("")
+
     def refresh(self, reload: bool = True) -> None:
         """Show the entries matching the search text (``reload``: look at the node types and files again)."""
         state, gui = self.host.session.state, self.host.gui
         with self.host.session.lock:
             if reload or not self.items:
-                self.items = palette_items(state.base_dir, exclude=state.path)
+                self.items = palette_items(self.host.session.runtime.registry, state.base_dir, exclude=state.path)
             query = self.search.value.strip()
             found = search(self.items, query)
-            self.count.content = (f"{len(found)} of {len(self.items)} entries match" if query
-                                  else f"{len(self.items)} entries")
+            self.count.content = (md("{} of {} entries match", len(found), len(self.items)) if query
+                                  else md("{} entries", len(self.items)))
             for folder in self.folders:
                 folder.remove()
             self.folders, self.buttons, self.by_label = [], {}, {}
             groups = {"Matches": found} if query else categories(found)
-            with self.root:
+            with self.container:
                 for name, items in groups.items():
-                    folder = gui.add_folder(name, expand_by_default=True)
+                    folder = gui.add_folder(plain(name, 80), expand_by_default=True)
                     self.folders.append(folder)
                     with folder:
                         for item in items:
                             self._button(item)
 
     def _button(self, item: PaletteItem) -> None:
-        label = item.title if item.title not in self.by_label else f"{item.title} ({item.category})"
-        hint = item.description + (f"\n{item.ports}" if item.ports else "")
-        button = self.host.gui.add_button(label, hint=hint)
+        label = plain(item.title if item.title not in self.by_label else f"{item.title} ({item.category})", 120)
+        hint = plain(item.description + (f"\n{item.ports}" if item.ports else ""))
+        button = self.host.gui.add_button(label, hint=hint, color="gray")
         button.on_click(lambda _e, item=item: self.add(item))
         self.buttons[item.key] = button
         self.by_label[label] = item
@@ -110,7 +114,7 @@ class ProblemsPanel:
         self.buttons = []
         with self.folder:
             for node_id, message in entries[:MAX_PROBLEMS]:
-                button = gui.add_button(canvas_draw.shorten(message, 90), hint=message, color="red")
+                button = gui.add_button(plain(canvas_draw.shorten(message, 90)), hint=plain(message), color="red")
                 if node_id is not None:
                     button.on_click(lambda _e, n=node_id: host.select_node(n))
                 self.buttons.append(button)

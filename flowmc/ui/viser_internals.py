@@ -13,23 +13,94 @@ canvas), maps left and right drag to panning, zooms toward the cursor, and turns
 anything turns it (a pan was seen to turn it by 0.24 degrees).
 
 The page script (``install_page``) defines ``window.flowmc``: ``send(kind, data)`` posts an event to
-the server through a hidden text field (``channel``: viser's own ``GuiUpdateMessage`` for that
-field, so the server hears it as that field's update; a counter makes every message new), and
-``download(name, text)``. It moves viser's notifications to the bottom right corner, over the foot
-of the side panel, and points ``iframe[data-flowmc-port]`` at the other name of this machine
-(``127.0.0.1`` <-> ``localhost``): a cross-site frame runs in its own browser process, so the 3D
-view's work never stalls the editor's canvas. If a future viser renames these, the camera
-orbits again and the extras stop; nothing else depends on them.
+the server as a value of one text field, the page channel (viser's own ``GuiUpdateMessage`` for
+that field, so the guard below checks it like any control; the script hides its row; a counter
+makes every message new), and ``download(name, text)``. It moves viser's notifications to the
+bottom left corner of the canvas, and points ``iframe[data-flowmc-port]`` at
+the other name of this machine (``127.0.0.1`` <-> ``localhost``) with the frame's token in its
+address and in viser's ``websocket`` parameter (a cross-site frame gets no cookie): the browser
+runs a cross-site frame in its own process, so the 3D view's work never stalls the editor's canvas.
+If a future viser renames these, the camera orbits again and the extras stop; nothing else depends
+on them.
+viser 1.1.1 has no hook to vet connections or client messages, so ``guarded_server`` adds two
+small layers (``flowmc.ui.guard`` holds the policy; docs/security.md says why):
+- every HTTP request and websocket handshake passes ``Guard.check`` first. viser starts its server
+  inside ``ViserServer()`` with ``websockets.asyncio.server.serve(..., process_request=...)``, looked
+  up through the ``websockets`` name of ``viser.infra._infra``; while one guarded server is being
+  built (under a lock) that name points at a stand-in whose ``serve`` puts the guard in front of
+  viser's own ``process_request`` and delegates everything else to the real package;
+- messages from clients that viser would apply to server-side GUI state are filtered before viser's
+  handlers see them: a GUI update may change only ``value`` (viser would ``setattr`` any field the
+  client names, ``update_cb`` included), of a control that exists, is enabled and visible, to a value
+  of the control's own type and range (a dropdown's options, a number's bounds); uploads are bounded.
+If a future viser moves these, ``guarded_server`` raises instead of serving unguarded.
 """
 
 from __future__ import annotations
 
 import json
-from typing import Any
+import math
+import threading
+from typing import Any, Callable
 
+import viser
+import viser.infra._infra as _infra
 from viser import _messages
 
-__all__ = ["lock_flat_camera", "set_page_title", "install_page", "download", "run_js"]
+from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
+
+__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "install_page", "download", "run_js",
+           "MAX_UPLOAD_BYTES", "CHANNEL_LABEL"]
+
+MAX_UPLOAD_BYTES = 32 * 1024 * 1024  # a graph file is far smaller; G-code files are not uploaded
+MAX_TEXT_VALUE = 1_000_000  # characters a text field may be set to
+_SECURITY_HEADERS = {"Referrer-Policy": "no-referrer", "X-Content-Type-Options": "nosniff", "Cache-Control": "no-store"}
+_build_lock = threading.Lock()
+CHANNEL_LABEL = "flowmc page events"  # the text field the page script sends through (hidden)
+
+_PAGE_JS = """
+(function flowmcPage(channel) {
+  if (window.flowmc) { window.flowmc.channel = channel; return; }
+  let counter = 0;
+  const flowmc = window.flowmc = { channel: channel, handlers: [] };
+  flowmc.send = (kind, data) => {
+    const m = window.__viserMutable;
+    if (!m || !m.sendMessage) return false;
+    counter += 1;
+    m.sendMessage({ type: "GuiUpdateMessage", uuid: flowmc.channel,
+                    updates: { value: JSON.stringify({ kind: kind, n: counter, t: Date.now(), data: data }) } });
+    return true;
+  };
+  flowmc.download = (name, text) => {
+    const url = URL.createObjectURL(new Blob([text], { type: "application/octet-stream" }));
+    const a = document.createElement("a");
+    a.href = url; a.download = name; a.style.display = "none";
+    document.body.appendChild(a); a.click(); a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 60000);
+  };
+  const style = document.createElement("style");
+  style.textContent = `.mantine-Notifications-root { top: auto !important; bottom: 12px !important;
+      left: 12px !important; width: 300px !important; }`;
+  document.head.appendChild(style);
+  const otherHost = () => {
+    const h = location.hostname;
+    return h === "127.0.0.1" ? "localhost" : (h === "localhost" ? "127.0.0.1" : h);
+  };
+  const point = (frame) => {
+    const at = otherHost() + ":" + frame.dataset.flowmcPort, token = encodeURIComponent(frame.dataset.flowmcToken || "");
+    const socket = encodeURIComponent((location.protocol === "https:" ? "wss://" : "ws://") + at + "/?token=" + token);
+    const src = location.protocol + "//" + at + "/?token=" + token + "&websocket=" + socket;
+    if (frame.getAttribute("src") !== src) frame.setAttribute("src", src);
+  };
+  const hide = (label) => { if (label.textContent === LABEL) { const row = label.closest(".mantine-Flex-root");
+    if (row) row.style.display = "none"; } };
+  const scan = (root) => { if (!root.querySelectorAll) return;
+    root.querySelectorAll("iframe[data-flowmc-port]").forEach(point); root.querySelectorAll("label").forEach(hide); };
+  new MutationObserver(records => records.forEach(r => r.addedNodes.forEach(scan))).observe(document.body,
+                                                                                          { childList: true, subtree: true });
+  scan(document);
+})(CHANNEL);
+"""
 
 # camera-controls ACTION codes (v2): TRUCK pans, DOLLY zooms; TOUCH_TRUCK pans with one finger.
 _LOCK_JS = """
@@ -53,66 +124,188 @@ _LOCK_JS = """
 })(0);
 """
 
-_PAGE_JS = """
-(function flowmcPage(channel) {
-  if (window.flowmc) { window.flowmc.channel = channel; return; }
-  let counter = 0;
-  const flowmc = window.flowmc = { channel: channel, handlers: [] };
-  flowmc.send = (kind, data) => {
-    const m = window.__viserMutable;
-    if (!m || !m.sendMessage) return false;
-    counter += 1;
-    m.sendMessage({ type: "GuiUpdateMessage", uuid: flowmc.channel,
-                    updates: { value: JSON.stringify({ kind: kind, n: counter, t: Date.now(), data: data }) } });
-    return true;
-  };
-  flowmc.download = (name, text) => {
-    const url = URL.createObjectURL(new Blob([text], { type: "application/octet-stream" }));
-    const a = document.createElement("a");
-    a.href = url; a.download = name; a.style.display = "none";
-    document.body.appendChild(a); a.click(); a.remove();
-    setTimeout(() => URL.revokeObjectURL(url), 60000);
-  };
-  const style = document.createElement("style");
-  style.textContent = `.mantine-Notifications-root { position: fixed !important; top: auto !important;
-      left: auto !important; right: 12px !important; bottom: 12px !important; width: 340px !important; }`;
-  document.head.appendChild(style);
-  const otherHost = () => {
-    const h = location.hostname;
-    return h === "127.0.0.1" ? "localhost" : (h === "localhost" ? "127.0.0.1" : h);
-  };
-  const point = (frame) => {
-    const src = location.protocol + "//" + otherHost() + ":" + frame.dataset.flowmcPort + (frame.dataset.flowmcPath || "/");
-    if (frame.getAttribute("src") !== src) frame.setAttribute("src", src);
-  };
-  const scan = (root) => root.querySelectorAll && root.querySelectorAll("iframe[data-flowmc-port]").forEach(point);
-  new MutationObserver(records => records.forEach(r => r.addedNodes.forEach(scan))).observe(document.body,
-                                                                                          { childList: true, subtree: true });
-  scan(document);
-})(CHANNEL);
-"""
 
-
-def run_js(client: Any, source: str) -> None:
-    """Run ``source`` in ``client``'s page."""
+def _send(client: Any, source: str) -> None:
     client.gui._websock_interface.queue_message(_messages.RunJavascriptMessage(source=source))
 
 
 def lock_flat_camera(client: Any) -> None:
     """Keep ``client``'s camera looking straight down -z (the scene's up is +y): pan and zoom only."""
-    run_js(client, _LOCK_JS)
+    _send(client, _LOCK_JS)
 
 
 def set_page_title(client: Any, title: str) -> None:
     """The browser tab's title (the editor puts the file name and the unsaved-changes mark there)."""
-    run_js(client, f"document.title = {json.dumps(title)};")
+    _send(client, f"document.title = {json.dumps(title)};")
+
+
+def run_js(client: Any, source: str) -> None:
+    """Run ``source`` in ``client``'s page."""
+    _send(client, source)
 
 
 def install_page(client: Any, channel: Any) -> None:
-    """``window.flowmc`` in ``client``'s page; its events arrive as updates of the hidden text ``channel``."""
-    run_js(client, _PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)))
+    """``window.flowmc`` in ``client``'s page; its events arrive as updates of the text field ``channel``
+    (labelled ``CHANNEL_LABEL``, which the script hides)."""
+    source = _PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
+    _send(client, source)
 
 
 def download(client: Any, name: str, text: str) -> None:
     """Save ``text`` as the file ``name`` in ``client``'s browser at once (viser's own download asks twice)."""
-    run_js(client, f"window.flowmc && window.flowmc.download({json.dumps(name)}, {json.dumps(text)});")
+    _send(client, f"window.flowmc && window.flowmc.download({json.dumps(name)}, {json.dumps(text)});")
+
+
+# ---------------------------------------------------------------------------------------- the guard
+class _Namespace:
+    """Stands in for a module: ``overrides`` first, then the real module's attributes."""
+
+    def __init__(self, real: Any, **overrides: Any):
+        self._real = real
+        self.__dict__.update(overrides)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._real, name)
+
+
+def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None) -> Callable[..., Any]:
+    def process_request(connection: Any, request: Any) -> Any:
+        port = connection.local_address[1]
+        headers = request.headers
+        if any(len(headers.get_all(name)) > 1 for name in ("Host", "Origin")):
+            verdict = Verdict(False, 403, "repeated Host or Origin header")
+        else:
+            verdict = guard.check({k: "; ".join(headers.get_all(k)) for k in ("Host", "Origin", "Cookie")
+                                   if headers.get_all(k)}, request.path, port)
+        if not verdict.ok:
+            response = connection.respond(verdict.status, REFUSED_PAGE.format(reason=verdict.reason))
+            for key, value in _SECURITY_HEADERS.items():
+                response.headers[key] = value
+            return response
+        response = inner(connection, request) if inner is not None else None
+        if response is not None:  # a page or file (a websocket handshake returns None and goes on)
+            for key, value in _SECURITY_HEADERS.items():
+                response.headers[key] = value
+            if verdict.set_cookie:
+                response.headers["Set-Cookie"] = guard.set_cookie(port)
+        return response
+
+    return process_request
+
+
+def guarded_server(guard: Guard, **kwargs: Any) -> viser.ViserServer:
+    """``viser.ViserServer(**kwargs)`` that answers only requests passing ``guard`` and lets clients
+    change only the values of enabled, visible controls."""
+    real = _infra.websockets
+    real_serve = real.asyncio.server.serve
+    used: list[bool] = []
+
+    def serve(handler: Any, *args: Any, process_request: Any = None, **options: Any) -> Any:
+        used.append(True)
+        return real_serve(handler, *args, process_request=_guarded_process_request(guard, process_request), **options)
+
+    stand_in = _Namespace(real, asyncio=_Namespace(real.asyncio, server=_Namespace(real.asyncio.server, serve=serve)))
+    with _build_lock:
+        _infra.websockets = stand_in
+        try:
+            server = viser.ViserServer(**kwargs)
+        finally:
+            _infra.websockets = real
+    if not used:
+        server.stop()
+        raise RuntimeError("viser did not start its server through websockets.asyncio.server.serve: "
+                           "flowmc cannot guard this viser version")
+    _filter_client_messages(server)
+    return server
+
+
+# ---------------------------------------------------------------------------------------- client messages
+def _input_handle(gui: Any, uuid: str) -> Any:
+    return gui._gui_input_handle_from_uuid.get(uuid) if gui is not None else None
+
+
+def _same_kind(current: Any, new: Any) -> bool:
+    """``new`` is a value of the kind ``current`` is (bool, finite number, bounded text, tuple of those)."""
+    if isinstance(current, bool):
+        return isinstance(new, bool)
+    if isinstance(current, (int, float)):
+        return isinstance(new, (int, float)) and not isinstance(new, bool) and math.isfinite(new)
+    if isinstance(current, str):
+        return isinstance(new, str) and len(new) <= MAX_TEXT_VALUE
+    if isinstance(current, tuple):
+        return (isinstance(new, (list, tuple)) and len(new) == len(current)
+                and all(_same_kind(c, n) for c, n in zip(current, new)))
+    return current is None and new is None
+
+
+def _in_range(handle: Any, value: Any) -> bool:
+    options = getattr(handle, "options", None)
+    if isinstance(options, tuple) and isinstance(value, str) and value not in options:
+        return False
+    low, high = getattr(handle, "min", None), getattr(handle, "max", None)
+    values = value if isinstance(value, (list, tuple)) else (value,)
+    lows = low if isinstance(low, tuple) else (low,) * len(values)
+    highs = high if isinstance(high, tuple) else (high,) * len(values)
+    for v, lo, hi in zip(values, lows, highs):
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            if (isinstance(lo, (int, float)) and v < lo) or (isinstance(hi, (int, float)) and v > hi):
+                return False
+    return True
+
+
+def update_allowed(gui: Any, message: Any) -> bool:
+    """May a client's ``GuiUpdateMessage`` reach ``gui`` (the GUI that owns the control)?"""
+    handle = _input_handle(gui, message.uuid)
+    if handle is None:
+        return True  # not this GUI's control: viser ignores it
+    updates = message.updates
+    if not isinstance(updates, dict) or set(updates) != {"value"}:
+        return False
+    if handle._impl.removed or handle.disabled or not handle.visible:
+        return False
+    new, current = updates["value"], handle._impl.value
+    if handle._impl.is_button:  # a button sends True, a button group one of its options
+        options = getattr(handle, "options", None)
+        return isinstance(new, str) and new in options if isinstance(options, tuple) else new is True
+    return _same_kind(current, new) and _in_range(handle, new)
+
+
+def _upload_allowed(gui: Any, message: Any) -> bool:
+    if isinstance(message, _messages.FileTransferStartUpload):
+        handle = _input_handle(gui, message.source_component_uuid)
+        if handle is None:
+            return True
+        return (not handle.disabled and handle.visible and 0 <= message.size_bytes <= MAX_UPLOAD_BYTES
+                and 0 <= message.part_count <= max(1, message.size_bytes))
+    state = gui._current_file_upload_states.get(message.transfer_uuid) if gui is not None else None
+    return state is None or state["transferred_bytes"] + len(message.content) <= state["total_bytes"]
+
+
+def _filter(handler: Any, gui_of: Callable[[int], Any]) -> None:
+    """Wrap ``handler``'s incoming-message dispatch (a viser websocket server or client connection) so
+    messages that would change server-side state they may not change are dropped."""
+    dispatch = handler._handle_incoming_message
+
+    async def filtered(client_id: Any, message: Any) -> None:
+        if isinstance(message, _messages.GuiUpdateMessage):
+            if not update_allowed(gui_of(client_id), message):
+                return
+        elif isinstance(message, (_messages.FileTransferStartUpload, _messages.FileTransferPart)):
+            if not _upload_allowed(gui_of(client_id), message):
+                return
+        await dispatch(client_id, message)
+
+    handler._handle_incoming_message = filtered
+
+
+def _filter_client_messages(server: viser.ViserServer) -> None:
+    infra_server = server._websock_server
+    _filter(infra_server, lambda _cid: server.gui)
+
+    def per_client(connection: Any) -> None:
+        def client_gui(cid: Any) -> Any:
+            client = server._connected_clients.get(cid)
+            return client.gui if client is not None else None
+        _filter(connection, client_gui)
+
+    infra_server.on_client_connect(per_client)

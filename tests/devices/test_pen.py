@@ -158,9 +158,7 @@ def test_preflight_checks_tool_events_and_names_segments_of_untimed_streams_by_t
 
 def test_io_now_refuses_a_tool_event():
     import flowmc
-    from flowmc.nodes import load_all
 
-    load_all()
     g = flowmc.GraphBuilder(title="io now")
     now = g.add("device.io_now", id="now")
     g.input("signals", "Signal", now.signals)

@@ -70,7 +70,7 @@ class EditorPage:
         """Load the page; returns seconds until every node is in the scene and the camera is locked."""
         start = time.perf_counter()
         self.page.goto(self.editor.url)
-        self.wait_nodes(len(self.editor.state.graph.nodes), timeout)
+        self.wait_nodes(len(self.editor.canvas.boxes), timeout)
         self.page.wait_for_function("window.__flowmcCameraLocked === true", timeout=timeout * 1000)
         return time.perf_counter() - start
 
@@ -80,6 +80,7 @@ class EditorPage:
         self.page.wait_for_function(_STILL, timeout=timeout * 1000)
 
     def wait_nodes(self, count: int, timeout: float = 30.0) -> None:
+        """Wait until the scene holds ``count`` node bodies (nodes and interface terminals)."""
         self.page.wait_for_function(f"({_INSTANCES})('/canvas/body') === {count}", timeout=timeout * 1000)
 
     def dismiss_toasts(self) -> None:
