@@ -20,7 +20,7 @@ import viser
 
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
-from flowmc.ui import camera, layout
+from flowmc.ui import camera, layout, viser_internals
 from flowmc.ui import canvas_draw as draw
 from flowmc.ui.canvas_text import Texts
 from flowmc.ui.canvas_wiring import WireDrag
@@ -28,6 +28,7 @@ from flowmc.ui.forms import form_fields
 from flowmc.ui.interface_edit import terminal_wires
 from flowmc.ui.ports import NodePorts, PortInfo, node_ports
 from flowmc.ui.state import EditorState
+from flowmc.ui.text import plain
 
 __all__ = ["Canvas"]
 
@@ -62,6 +63,7 @@ class Canvas:
         self._handles: dict[str, Any] = {}
         self._drag: dict[str, Any] | None = None
         self._revision = -1  # the state revision the geometry was made for
+        self._tips: list[tuple[float, float, float, float, str]] = []
         scene = server.scene
         scene.set_up_direction("+y")
         scene.configure_default_lights(False)
@@ -87,7 +89,7 @@ class Canvas:
         if self.grid is not None:
             self.grid.remove()
         self.grid = scene.add_grid("/canvas/grid", plane="xy", cell_size=0.2, section_size=1.0, cell_color=t.grid,
-                                   section_color=tuple(int(c * 0.94) for c in t.grid), infinite_grid=True,
+                                   section_color=tuple(int(c * 0.97) for c in t.grid), infinite_grid=True,
                                    fade_distance=400.0, shadow_opacity=0.0, position=(0.0, 0.0, draw.Z_GRID))
         if self.boxes:
             self.sync()
@@ -101,6 +103,7 @@ class Canvas:
 
         camera.setup(client, frame_again)
         client.camera.on_update(lambda cam: self._zoomed(cam))
+        self._send_tips([client])
 
     def _zoomed(self, cam: Any) -> None:
         per_px = camera.screen_px_per_world(cam)
@@ -227,7 +230,17 @@ class Canvas:
                 self._draw_shapes()
                 self.texts.show(self._texts())
                 self._draw_pending()
+            self._send_tips()
         self.server.flush()
+
+    def _send_tips(self, clients: list[Any] | None = None) -> None:
+        """Hover texts of cut titles, sent when they changed (or to a page that just connected)."""
+        s = layout.SCALE
+        tips = [(b.x, b.y - layout.TITLE_H * s, b.x + b.w, b.y, plain(b.full_title, 300)) for b in self.boxes if b.elided]
+        if tips != self._tips or clients is not None:
+            self._tips = tips
+            for client in clients if clients is not None else list(self.server.get_clients().values()):
+                viser_internals.set_tips(client, tips)
 
     def sync_selection(self) -> None:
         """After a selection change only: recolour frames, wires and notes (fast, nothing is rebuilt)."""

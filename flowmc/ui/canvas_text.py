@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from flowmc.ui.canvas_draw import Z_LABELS
+from flowmc.ui.text import plain
 
 __all__ = ["Texts", "DETAIL_ON", "DETAIL_OFF"]
 
@@ -51,7 +52,7 @@ class Texts:
         if old is not None:
             old[0].remove()
         parent = "/canvas/detail" if detail else "/canvas/titles"
-        handle = self.scene.add_label(f"{parent}/{key}", text, position=(pos[0], pos[1], Z_LABELS),
+        handle = self.scene.add_label(f"{parent}/{key}", plain(text, 400), position=(pos[0], pos[1], Z_LABELS),
                                       font_size_mode="scene", font_scene_height=size, anchor=anchor)
         self.handles[key] = (handle, text, pos, size)
 

@@ -49,7 +49,7 @@ from viser import _messages
 
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
-__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "install_page", "download", "run_js",
+__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "install_page", "download", "run_js", "set_tips",
            "MAX_UPLOAD_BYTES", "CHANNEL_LABEL"]
 
 MAX_UPLOAD_BYTES = 32 * 1024 * 1024  # a graph file is far smaller; G-code files are not uploaded
@@ -99,6 +99,55 @@ _PAGE_JS = """
   new MutationObserver(records => records.forEach(r => r.addedNodes.forEach(scan))).observe(document.body,
                                                                                           { childList: true, subtree: true });
   scan(document);
+  const inField = (t) => t && t.closest && t.closest("input, textarea, select, [contenteditable]");
+  const viewPoint = (e) => { const c = window.__viserMutable && window.__viserMutable.canvas; if (!c) return null;
+    const r = c.getBoundingClientRect(); const u = (e.clientX - r.left) / r.width, v = (e.clientY - r.top) / r.height;
+    return (u >= 0 && u <= 1 && v >= 0 && v <= 1) ? { u: u, v: v } : null; };
+  document.addEventListener("paste", (e) => {  // Ctrl+V on the canvas: the server pastes this text, or its own copy
+    if (inField(e.target)) return;
+    const text = (e.clipboardData && e.clipboardData.getData("text/plain")) || "";
+    flowmc.send("paste", text.length <= 900000 ? text : "");
+    e.preventDefault();
+  });
+  let drag = null;  // a palette button dragged onto the canvas
+  document.addEventListener("pointerdown", (e) => {
+    const button = e.button === 0 && e.target.closest && e.target.closest("button");
+    const marker = document.querySelector("[data-flowmc-palette]");
+    const root = marker && marker.closest(".mantine-ScrollArea-content");  // the palette tab's scrolling list
+    if (button && root && root.contains(button)) drag = { label: button.textContent.trim(), x: e.clientX, y: e.clientY, ghost: null };
+  }, true);
+  document.addEventListener("pointermove", (e) => {
+    if (drag && !drag.ghost && Math.hypot(e.clientX - drag.x, e.clientY - drag.y) > 8) {
+      const g = drag.ghost = document.createElement("div");
+      g.textContent = drag.label;
+      g.style.cssText = "position:fixed;z-index:10000;pointer-events:none;padding:4px 10px;border-radius:4px;" +
+        "background:#228be6;color:#fff;font:13px sans-serif;box-shadow:0 2px 6px rgba(0,0,0,.3)";
+      document.body.appendChild(g);
+    }
+    if (drag && drag.ghost) { drag.ghost.style.left = (e.clientX + 10) + "px"; drag.ghost.style.top = (e.clientY + 10) + "px"; }
+    tip(e);
+  }, true);
+  document.addEventListener("pointerup", (e) => {
+    const d = drag; drag = null;
+    if (!d || !d.ghost) return;
+    d.ghost.remove();
+    const at = viewPoint(e);
+    if (at) flowmc.send("palette-drop", { label: d.label, u: at.u, v: at.v });
+  }, true);
+  flowmc.tips = [];  // [x0, y0, x1, y1, text]: canvas rectangles (world units) whose full text shows on hover
+  const tip = (e) => {
+    const m = window.__viserMutable, c = m && m.canvas, body = m && m.nodeRefFromName && m.nodeRefFromName["/canvas/body"];
+    if (!c || !body || !body.parent || e.target !== c) return;
+    const r = c.getBoundingClientRect(), V = m.camera.position.constructor;
+    const screen = (x, y) => { const v = new V(x, y, 0); body.parent.localToWorld(v); v.project(m.camera);
+      return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height]; };
+    let text = "";
+    for (const [x0, y0, x1, y1, t] of flowmc.tips) {
+      const [a, b] = screen(x0, y1), [cx, cy] = screen(x1, y0);
+      if (e.clientX >= a && e.clientX <= cx && e.clientY >= b && e.clientY <= cy) { text = t; break; }
+    }
+    if (c.title !== text) c.title = text;
+  };
 })(CHANNEL);
 """
 
@@ -149,6 +198,11 @@ def install_page(client: Any, channel: Any) -> None:
     (labelled ``CHANNEL_LABEL``, which the script hides)."""
     source = _PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
     _send(client, source)
+
+
+def set_tips(client: Any, tips: list[tuple[float, float, float, float, str]]) -> None:
+    """Hover texts for canvas rectangles (world xmin, ymin, xmax, ymax): the full titles of cut node titles."""
+    _send(client, f"window.flowmc && (window.flowmc.tips = {json.dumps(tips)});")
 
 
 def download(client: Any, name: str, text: str) -> None:
