@@ -222,7 +222,7 @@ def test_grbl_pen_commands_are_configurable_and_conflict_with_a_spindle_program(
 
 
 def test_grbl_board_receives_the_pen_commands(grbl_sim):  # noqa: F811
-    from flowmc.devices.card import open_device
+    from flowmc.devices.backends import open_device
 
     sim = grbl_sim(line_time=0.0005)
     path = plotter_path()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import flowmc
-from flowmc.devices.card import open_device
+from flowmc.devices.backends import open_device
 from flowmc.devices.sim import SimCard
 from flowmc.errors import DeviceError
 
