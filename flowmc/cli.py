@@ -194,6 +194,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     result = runtime.run(plan, inputs)
     if args.out:
         write_json_atomic(Path(args.out), {"graph": str(args.file), **result.summary()})
+    if args.snapshot:
+        from flowmc.runtime.views import write_snapshots
+
+        for written in write_snapshots(result, plan, runtime, args.snapshot):
+            print(f"3D view: {written}", file=sys.stderr)
     for name, value in result.outputs.items():
         print(f"{name} = {json.dumps(_json_safe(flowmc.runtime.summarize(value)))}")
     if not result.ok:
@@ -315,6 +320,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a stored param")
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
     p.add_argument("--out", metavar="results.json", help="write per-node results and outputs as JSON")
+    p.add_argument("--snapshot", metavar="DIR", help="write a PNG of every 3D View node's content into DIR")
     p.add_argument("-q", "--quiet", action="store_true", help="no per-node progress on stderr")
     p.set_defaults(func=cmd_run)
 

@@ -117,6 +117,7 @@ class Runtime:
         self.cache = NodeCache()
         self._plans: dict[tuple, Plan] = {}
         self._children: dict[str, Runtime] = {}
+        self.last_result: RunResult | None = None  # a sub-graph's child runtime keeps its inner run (views, probes)
 
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Call ``listener(event)`` for every event of every run; returns an unsubscribe function."""
@@ -172,7 +173,8 @@ class Runtime:
             fed, issues = _interface_values(plan, inputs or {})
             if issues:
                 raise GraphError(_count(issues, "problem") + " with the inputs", where=where, issues=issues)
-            return _Run(self, plan, fed).execute()
+            self.last_result = _Run(self, plan, fed).execute()
+            return self.last_result
 
 
 def _count(items: list, noun: str) -> str:

@@ -16,6 +16,7 @@ import contextlib
 import json
 import socket
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -33,6 +34,7 @@ from flowmc.ui.files_panel import FilesPanel
 from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
 from flowmc.ui.interface_panel import InterfacePanel
+from flowmc.ui.minimap import Minimap
 from flowmc.ui.panels import PalettePanel, ProblemsPanel
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
@@ -41,6 +43,7 @@ from flowmc.ui.text import escape_md, md, plain
 __all__ = ["Editor", "serve_main"]
 
 MAX_TOASTS = 3
+SETTLE_DELAY_S = 0.06
 COMMANDS = (("Undo", "Z", "cmd/ctrl", "Undo"), ("Redo", "Z", "cmd/ctrl+shift", "Redo"),
             ("Delete selection", "delete", None, "Delete"), ("Fit to view", "F", None, "Fit"),
             ("Save", "S", "cmd/ctrl", "Save"), ("Run", "enter", "cmd/ctrl", "Run"),
@@ -69,6 +72,7 @@ class Editor:
         self.pending_modal: Any = None
         self._titles: dict[int, str] = {}
         self._toasts: dict[int, list[Any]] = {}
+        self._settles = 0
         self._page_handlers: dict[str, Callable[[Any, Any], None]] = {}
         self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
@@ -77,12 +81,14 @@ class Editor:
         self.canvas = Canvas(self.server, self.state, self.notify, self.lock, status=self.session.status)
         self.actions = Actions(self)
         self._build_gui()
+        self.minimap = Minimap(self)
         self.extensions = Extensions(self) if extensions else None
         self.session.on_progress(self.canvas.sync)
         self.session.on_result(self._run_finished)
         self.state.subscribe(self._on_state)
         self.server.on_client_connect(self._on_connect)
         self.canvas.sync()
+        self.canvas.fit()  # where the first page starts
         self._refresh_side()
 
     @property
@@ -134,6 +140,8 @@ class Editor:
             command.on_trigger(lambda _e, a=action: self.edit(a))
         self.on_page_event("paste", lambda _client, data: self.actions.paste_text(data if isinstance(data, str) else None))
         self.on_page_event("palette-drop", self._palette_drop)
+        self.on_page_event("grid", lambda _client, data: self.inspector.grid_event(data.get("grid"), data)
+                           if isinstance(data, dict) else None)
 
     def set_theme(self, name: str) -> None:
         """Light or dark: the page (viser's theme) and the canvas."""
@@ -155,6 +163,7 @@ class Editor:
     def _on_connect(self, client: viser.ClientHandle) -> None:
         viser_internals.install_page(client, self.channel)
         self.canvas.setup_client(client)
+        client.camera.on_update(lambda _cam: self.minimap.refresh(force=False))
         self._titles.pop(client.client_id, None)
         self._refresh_title([client])
 
@@ -190,16 +199,19 @@ class Editor:
 
     def _on_state(self, kind: str) -> None:
         with self.lock:
-            if kind == "selection":  # the fast path: recolour, say what is selected, then build its form
-                self.canvas.sync_selection()
+            if kind == "selection":  # the fast path: say what is selected, recolour, then build its form
                 with self.server.atomic():
                     self.selection.show()
                 self.server.flush()
-                self.settle()
+                self.canvas.sync_selection()
+                self._settle_soon()
+                if self.extensions is not None:
+                    self.extensions.selection_changed()
                 return
             if kind in ("graph", "document"):
                 self.canvas.status.clear()
             self.canvas.sync()
+            self.minimap.refresh()
             if kind == "move":
                 self._refresh_title()
                 return
@@ -210,6 +222,18 @@ class Editor:
             self.settle()
         if self.extensions is not None and kind in ("graph", "document"):
             self.extensions.graph_changed(kind)
+
+    def _settle_soon(self) -> None:
+        """The form of a new selection, a moment after its summary and frame went out, so that the page draws
+        those first (a browser page shows them about 100 ms sooner); at once when no page is open."""
+        self._settles += 1
+        if not self.server.get_clients():
+            self.settle()
+            return
+        ticket = self._settles
+        timer = threading.Timer(SETTLE_DELAY_S, lambda: self.settle() if ticket == self._settles else None)
+        timer.daemon = True
+        timer.start()
 
     def settle(self) -> None:
         """Bring the inspector and the side panel up to date with the document."""

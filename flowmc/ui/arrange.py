@@ -17,7 +17,7 @@ import networkx as nx
 
 __all__ = ["Rect", "free_spot", "auto_layout", "crossings", "overlaps", "align", "ALIGNMENTS"]
 
-GAP_X = 90.0  # between columns
+GAP_X = 60.0  # between columns
 GAP_Y = 36.0  # between nodes in a column
 GAP_GROUP = 80.0  # between unconnected groups
 SWEEPS = 6

@@ -69,7 +69,8 @@ class Canvas:
         scene.configure_default_lights(False)
         scene.configure_environment_map(None)
         scene.add_light_ambient("/light", intensity=draw.AMBIENT)
-        self.grid = None
+        self.grid: Any = None
+        self._grid_box: tuple[float, ...] | None = None
         self.texts = Texts(scene)
         self.wiring = WireDrag(self)
         self._pending_marker = scene.add_box("/canvas/pending", color=tuple(draw.mesh_rgb(draw.FRAME_SELECTED)),
@@ -82,17 +83,32 @@ class Canvas:
 
     # ------------------------------------------------------------------ theme and camera
     def set_theme(self, name: str) -> None:
-        """Light or dark canvas: background, grid and node colours."""
+        """Light or dark canvas: grid and node colours (the page's background follows viser's theme)."""
         self.theme = draw.THEMES[name]
-        t, scene = self.theme, self.server.scene
-        scene.set_background_image(np.full((2, 2, 3), t.background, np.uint8), format="png")
-        if self.grid is not None:
-            self.grid.remove()
-        self.grid = scene.add_grid("/canvas/grid", plane="xy", cell_size=0.2, section_size=1.0, cell_color=t.grid,
-                                   section_color=tuple(int(c * 0.97) for c in t.grid), infinite_grid=True,
-                                   fade_distance=400.0, shadow_opacity=0.0, position=(0.0, 0.0, draw.Z_GRID))
+        self._grid_box = None
         if self.boxes:
             self.sync()
+
+    def _draw_grid(self) -> None:
+        """A subtle grid every 100 canvas px, drawn as thin lines around the graph (a full-screen grid shader
+        made every frame cost tens of milliseconds under software WebGL); redrawn when the graph outgrows it."""
+        box = layout.bounds([*self.boxes, *self.notes]) or (-2.0, -2.0, 6.0, 2.0)
+        if self._grid_box is not None and self._grid_box[0] <= box[0] and self._grid_box[1] <= box[1] \
+                and box[2] <= self._grid_box[2] and box[3] <= self._grid_box[3]:
+            return
+        pad = max(box[2] - box[0], box[3] - box[1], 10.0)
+        x0, y0 = np.floor(box[0] - pad), np.floor(box[1] - pad)
+        x1, y1 = np.ceil(box[2] + pad), np.ceil(box[3] + pad)
+        self._grid_box = (x0, y0, x1, y1)
+        xs, ys = np.arange(x0, x1 + 1), np.arange(y0, y1 + 1)
+        segs = np.concatenate([np.stack([np.column_stack([xs, np.full_like(xs, y0)]), np.column_stack([xs, np.full_like(xs, y1)])], 1),
+                               np.stack([np.column_stack([np.full_like(ys, x0), ys]), np.column_stack([np.full_like(ys, x1), ys])], 1)])
+        segs = np.concatenate([segs, np.full((len(segs), 2, 1), draw.Z_GRID)], axis=2).astype(np.float32)
+        colors = np.broadcast_to(np.asarray(self.theme.grid, np.uint8), segs.shape).copy()
+        if self.grid is not None:
+            self.grid.remove()
+        self.grid = self.server.scene.add_line_segments("/canvas/grid", segs, colors, thickness=1.0,
+                                                        thickness_units="screen")
 
     def setup_client(self, client: viser.ClientHandle) -> None:
         """Top-down camera, locked flat, framing the graph; details follow the zoom."""
@@ -113,6 +129,8 @@ class Canvas:
     def fit(self, clients: list[viser.ClientHandle] | None = None) -> None:
         """Frame every node and note (the middle of the sheet when there are none) in each client's view."""
         box = layout.bounds([*self.boxes, *self.notes]) or (-2.0, -2.0, 6.0, 2.0)
+        if clients is None:
+            camera.initial(self.server, box)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             camera.frame(client, box)
 
@@ -200,8 +218,8 @@ class Canvas:
                 taken.append((kind, y))
                 pos = (left if kind == "in" else right, y)
             port = PortInfo(item.name, "out" if kind == "in" else "in", (item.type,), doc=item.description)
-            title = f"{'▶ ' if kind == 'in' else ''}{item.name} : {item.type}{' ▶' if kind == 'out' else ''}"
-            pair = [(port, "")]
+            title = f"▶ {item.name}" if kind == "in" else f"{item.name} ▶"
+            pair = [(port, item.type)]
             out.append(layout.node_box(layout.terminal_id(kind, item.name), pos, [] if kind == "in" else pair,
                                        pair if kind == "in" else [], title))
         return out
@@ -227,6 +245,7 @@ class Canvas:
         with self.lock:
             self.geometry()
             with self.server.atomic():
+                self._draw_grid()
                 self._draw_shapes()
                 self.texts.show(self._texts())
                 self._draw_pending()
@@ -314,8 +333,7 @@ class Canvas:
                                                          "center-right", True)
             top = box.y - box.h + (len(box.preview) * layout.PREVIEW_H + layout.PAD) * s
             for k, line in enumerate(box.preview):
-                out[f"{key}/row/{k}"] = (layout.fit_text(line, layout.PREVIEW_FONT, box.w / s - 2 * layout.PAD),
-                                         (box.x + layout.PAD * s, top - (k + 0.5) * layout.PREVIEW_H * s),
+                out[f"{key}/row/{k}"] = (line, (box.x + layout.PAD * s, top - (k + 0.5) * layout.PREVIEW_H * s),
                                          layout.PREVIEW_FONT * s, "center-left", True)
             problems = self.problems.get(box.node_id, [])
             if problems:

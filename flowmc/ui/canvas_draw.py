@@ -22,7 +22,6 @@ __all__ = ["AMBIENT", "Theme", "LIGHT", "DARK", "THEMES", "mesh_rgb", "QUAD_VERT
 @dataclass(frozen=True)
 class Theme:
     name: str
-    background: tuple[int, int, int]
     grid: tuple[int, int, int]
     status: dict[str | None, tuple[int, int, int]]
     frame: tuple[int, int, int]
@@ -37,14 +36,14 @@ class Theme:
 
 
 LIGHT = Theme(
-    "light", background=(246, 247, 249), grid=(236, 238, 242),
+    "light", grid=(228, 231, 236),
     status={None: (252, 252, 252), "queued": (222, 228, 238), "running": (255, 213, 100), "done": (170, 226, 178),
             "cached": (186, 226, 234), "failed": (244, 140, 140), "skipped": (210, 210, 210)},
     frame=(120, 124, 132), selected=(255, 140, 0), problem=(215, 40, 40), title_bar=(226, 231, 240),
     terminal=(214, 226, 246), comment=(255, 244, 196), comment_bar=(248, 226, 140), label_back=(236, 236, 236),
     dim_port=(200, 200, 200))
 DARK = Theme(
-    "dark", background=(30, 32, 37), grid=(40, 43, 49),
+    "dark", grid=(52, 56, 64),
     status={None: (58, 62, 71), "queued": (62, 70, 88), "running": (150, 118, 30), "done": (46, 104, 62),
             "cached": (40, 92, 104), "failed": (136, 44, 44), "skipped": (70, 70, 74)},
     frame=(100, 106, 118), selected=(255, 150, 20), problem=(240, 70, 70), title_bar=(78, 84, 98),

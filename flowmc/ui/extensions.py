@@ -18,6 +18,7 @@ from flowmc.errors import FlowmcError
 from flowmc.ui import view3d_data
 from flowmc.ui.session import RunRequest
 from flowmc.ui.text import md
+from flowmc.runtime.views import views
 
 if TYPE_CHECKING:
     from flowmc.ui.app import Editor
@@ -32,6 +33,8 @@ class Extensions:
         self.editor = editor
         self.session = editor.session
         self.view: Any = None
+        self.last: tuple[Any, Any] | None = None  # the last run's (result, plan)
+        self.view_key = ""  # the 3D View node shown
         self.front: Any = None
         self.device: Any = None
         self.failures: dict[str, str] = {}
@@ -60,12 +63,46 @@ class Extensions:
             else:
                 self.front.show_result(result.ok, "; ".join(result.errors))
         if self.view is not None and request.result is not None:
-            try:
-                shown = self.view.show_result(request.result, request.plan.graph)
-            except Exception as exc:  # noqa: BLE001 - a view that cannot show a result must not break the editor
-                self.editor.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
-                return
-            self._view_has(bool(shown.paths or shown.trajectories or shown.logs))
+            self.last = (request.result, request.plan)
+            self.show_view()
+
+    def show_view(self) -> None:
+        """Show the selected 3D View node (or the one shown before, or the first), inside sub-graphs too; a
+        graph with none shows the run's most downstream values, as before there were View nodes."""
+        if self.view is None or self.last is None:
+            return
+        result, plan = self.last
+        try:
+            found = views(result, plan, self.session.runtime)
+            if found:
+                chosen = self._chosen(found)
+                self.view_key = chosen.key
+                self.view.show_view(chosen)
+                something = not chosen.empty
+            else:
+                shown = self.view.show_result(result, plan.graph)
+                something = bool(shown.paths or shown.trajectories or shown.logs)
+        except Exception as exc:  # noqa: BLE001 - a view that cannot show a result must not break the editor
+            self.editor.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
+            return
+        self._view_has(something)
+
+    def _chosen(self, found: list[Any]) -> Any:
+        """The view a selected node names (its id, or the id inside a sub-graph), else the last one, else the first."""
+        for node_id in self.session.state.selected_nodes:
+            match = next((v for v in found if v.key == node_id or v.key.endswith("/" + node_id)), None)
+            if match is not None:
+                return match
+        return next((v for v in found if v.key == self.view_key), found[0])
+
+    def selection_changed(self) -> None:
+        """A 3D View node was selected: show it (when the last run reached it)."""
+        if self.last is None or self.view is None:
+            return
+        selected = set(self.session.state.selected_nodes)
+        keys = [v.key for v in views(*self.last, self.session.runtime)]
+        if any(k.rpartition("/")[2] in selected for k in keys if k != self.view_key):
+            self.show_view()
 
     def _view_has(self, something: bool) -> None:
         """Open the docked 3D view when it gets something to show; it starts collapsed, out of the canvas's way."""

@@ -57,6 +57,7 @@ class InterfacePanel:
                 self.host.notify("error", str(exc), client)
                 return None
             self.state.select(nodes=[key])
+        self.host.edit("Fit")  # the new terminal in view
         self.host.notify("info", f"interface {'input' if kind == 'in' else 'output'} {name} added: "
                                  + ("wire its terminal to the inputs it feeds" if kind == "in" else "it is wired"))
         return key

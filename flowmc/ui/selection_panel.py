@@ -123,11 +123,14 @@ class SelectionPanel:
         return True
 
     def go_back(self) -> bool:
+        """Save the sub-graph (asking first if that breaks its parents) and return to the graph that opened it."""
         host, state = self.host, self.session.state
         with self.session.lock:
-            try:
+            if state.dirty:
+                host.edit("Save")
                 if state.dirty:
-                    state.save()
+                    return False  # not saved: a dialog asks, or the save failed and said why
+            try:
                 state.leave()
             except FlowmcError as exc:
                 host.notify("error", str(exc))

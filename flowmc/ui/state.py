@@ -47,6 +47,7 @@ class EditorState:
         self._dirty: tuple[int, bool] | None = None
         self.revision = 0  # bumped by every change to the document (not by selection)
         self._stack: list[tuple] = []
+        self._folder_set = False
         self._set_document(graph or Graph(), saved=graph is not None and graph.path is not None, folder=folder)
 
     # ------------------------------------------------------------ document
@@ -74,9 +75,12 @@ class EditorState:
         return self._dirty[1]
 
     def _set_document(self, graph: Graph, *, saved: bool, folder: str | Path | None = None) -> None:
+        """Show ``graph``. The editor's folder is set once, when it starts (the given folder, else the first
+        graph's); opening another file (an example elsewhere, a sub-graph) keeps it."""
         self.graph = graph
-        if folder is not None or graph.path is not None:
+        if folder is not None or (graph.path is not None and not self._folder_set):
             self.folder = Path(folder).resolve() if folder is not None else graph.path.resolve().parent
+            self._folder_set = True
         self._saved = dumps(graph) if saved else None
         self.history = History(MAX_UNDO)
         self.selected_nodes, self.selected_wires, self.selected_notes = [], [], []
@@ -445,6 +449,11 @@ class EditorState:
         self._set_document(graph, saved=False)
         self._saved, self.history, self.selected_nodes = saved, history, selected
         self._emit("document")
+
+    @property
+    def waiting(self) -> list[Graph]:
+        """The graphs waiting for the sub-graph being edited (with their unsaved changes), outermost first."""
+        return [entry[0] for entry in self._stack]
 
     @property
     def parents(self) -> list[str]:

@@ -147,6 +147,19 @@ class ToolpathView:
             else:
                 self._select(chosen)
 
+    def show_view(self, view: Any) -> None:
+        """Show what one 3D View node (a ``flowmc.runtime.views.View``) was wired to."""
+        values, params = view.values, view.params
+        self.tol = float(params.get("tolerance") or self.tol)
+        motions = [(values[k], f"{view.key}.{k}") for k in ("trajectory", "steps") if values.get(k) is not None]
+        self.show([values["path"]] if values.get("path") is not None else [], [m for m, _ in motions],
+                  values.get("machine") if params.get("travel_box", True) else None,
+                  [values["log"]] if values.get("log") is not None else [], names=[n for _, n in motions])
+        if view.empty:
+            self.info.content = md("**{}**: nothing wired into it arrived in this run.", view.title)
+        else:
+            self.info.content = md("**{}**  \n", view.title) + self.info.content
+
     def show_result(self, result: Any, graph: Any = None) -> data.Shown:
         """Show what a ``RunResult`` produced (see ``view3d_data.collect``); returns what was picked."""
         shown = data.collect(result, graph)

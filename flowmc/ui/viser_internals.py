@@ -94,8 +94,15 @@ _PAGE_JS = """
   };
   const hide = (label) => { if (label.textContent === LABEL) { const row = label.closest(".mantine-Flex-root");
     if (row) row.style.display = "none"; } };
+  const refocus = (table) => {  // a grid redrawn after an edit: back to the cell that had the focus
+    const f = flowmc.gridFocus;
+    if (!f || table.dataset.flowmcGrid !== f.grid || (document.activeElement && document.activeElement !== document.body)) return;
+    const el = cell(table, f.r, f.c);
+    if (el) el.focus();
+  };
   const scan = (root) => { if (!root.querySelectorAll) return;
-    root.querySelectorAll("iframe[data-flowmc-port]").forEach(point); root.querySelectorAll("label").forEach(hide); };
+    root.querySelectorAll("iframe[data-flowmc-port]").forEach(point); root.querySelectorAll("label").forEach(hide);
+    root.querySelectorAll("table[data-flowmc-grid]").forEach(refocus); };
   new MutationObserver(records => records.forEach(r => r.addedNodes.forEach(scan))).observe(document.body,
                                                                                           { childList: true, subtree: true });
   scan(document);
@@ -103,7 +110,47 @@ _PAGE_JS = """
   const viewPoint = (e) => { const c = window.__viserMutable && window.__viserMutable.canvas; if (!c) return null;
     const r = c.getBoundingClientRect(); const u = (e.clientX - r.left) / r.width, v = (e.clientY - r.top) / r.height;
     return (u >= 0 && u <= 1 && v >= 0 && v <= 1) ? { u: u, v: v } : null; };
+  const gridOf = (el) => el && el.closest && el.closest("table[data-flowmc-grid]");
+  const cell = (g, r, c) => g.querySelector(`[data-r="${r}"][data-c="${c}"]`);
+  const gridSend = (el, extra) => flowmc.send("grid", Object.assign({ grid: gridOf(el).dataset.flowmcGrid, row: Number(el.dataset.r) }, extra));
+  document.addEventListener("change", (e) => {  // a grid cell edited
+    const t = e.target;
+    if (gridOf(t) && t.dataset.c !== undefined)
+      gridSend(t, { op: "set", col: t.dataset.c, value: t.type === "checkbox" ? String(t.checked) : t.value });
+  }, true);
+  document.addEventListener("click", (e) => {
+    const b = e.target.closest && e.target.closest("button[data-act]");
+    if (b && gridOf(b)) gridSend(b, { op: b.dataset.act });
+    const map = e.target.closest && e.target.closest("svg[data-flowmc-minimap]");
+    if (map) {  // the minimap: x0, y1 (world top-left) and pixels per world unit
+      const [x0, y1, scale] = map.dataset.flowmcMinimap.split(",").map(Number), r = map.getBoundingClientRect();
+      flowmc.send("minimap", { x: x0 + (e.clientX - r.left - 4) / scale, y: y1 - (e.clientY - r.top - 4) / scale });
+    }
+  }, true);
+  document.addEventListener("focusin", (e) => {
+    const g = gridOf(e.target);
+    if (g && e.target.dataset.c !== undefined) flowmc.gridFocus = { grid: g.dataset.flowmcGrid, r: e.target.dataset.r, c: e.target.dataset.c };
+  }, true);
+  document.addEventListener("keydown", (e) => {  // arrows and Enter move between cells
+    const t = e.target, g = gridOf(t);
+    if (!g || t.dataset.c === undefined) return;
+    const r = Number(t.dataset.r), cols = [...g.querySelectorAll(`[data-r="${r}"][data-c]`)], k = cols.indexOf(t);
+    const text = t.tagName === "INPUT" && t.type !== "checkbox";
+    let next = null;
+    if (e.key === "ArrowDown" || e.key === "Enter") next = cell(g, r + 1, t.dataset.c);
+    else if (e.key === "ArrowUp") next = cell(g, r - 1, t.dataset.c);
+    else if (e.key === "ArrowLeft" && (!text || t.selectionStart === 0)) next = cols[k - 1];
+    else if (e.key === "ArrowRight" && (!text || t.selectionEnd === t.value.length)) next = cols[k + 1];
+    if (t.tagName === "SELECT" && (e.key === "ArrowDown" || e.key === "ArrowUp")) return;
+    if (next) { e.preventDefault(); if (t.tagName === "INPUT" && text) t.dispatchEvent(new Event("change", { bubbles: true }));
+      next.focus(); if (next.select) next.select(); }
+  }, true);
   document.addEventListener("paste", (e) => {  // Ctrl+V on the canvas: the server pastes this text, or its own copy
+    const text0 = (e.clipboardData && e.clipboardData.getData("text/plain")) || "";
+    if (gridOf(e.target) && e.target.dataset.c !== undefined) {  // cells from a spreadsheet: fill the grid from here
+      if (/[\\t\\n]/.test(text0.replace(/\\s+$/, ""))) { e.preventDefault(); gridSend(e.target, { op: "paste", col: e.target.dataset.c, text: text0 }); }
+      return;
+    }
     if (inField(e.target)) return;
     const text = (e.clipboardData && e.clipboardData.getData("text/plain")) || "";
     flowmc.send("paste", text.length <= 900000 ? text : "");

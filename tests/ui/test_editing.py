@@ -17,6 +17,7 @@ from flowmc.ui import arrange, clipboard
 from flowmc.ui.arrange import Rect
 from flowmc.ui.palette import categories, palette_items, search
 from flowmc.ui.state import EditorState
+from flowmc.ui.text import unescape_md
 
 
 @pytest.fixture
@@ -171,3 +172,44 @@ def test_palette_finds_nodes_by_port_type_and_groups_by_category():
     assert "path.translate" in {i.type_id for i in search(items, "translate path")}
     groups = categories(items)
     assert list(groups)[0] == "Path" and sum(map(len, groups.values())) == len(items)
+
+
+# ---------------------------------------------------------------- a sub-graph's interface and its parents
+
+def test_saving_a_sub_graph_whose_interface_changed_names_every_parent_it_breaks(tmp_path):
+    from flowmc.ui.app import Editor
+
+    editor = Editor(example_file(tmp_path), port=0, extensions=False)
+    try:
+        state = editor.state
+        state.make_subgraph(["shift", "both"], "middle")
+        state.save()
+        other = EditorState.open(tmp_path / "example.flowmc.json")
+        other.save(tmp_path / "another.flowmc.json")  # a second graph that uses middle.flowmc.json
+        state.select(nodes=[n.id for n in state.graph.nodes if n.type == "subgraph"])
+        assert editor.selection.open_subgraph()
+        assert state.parents == ["example.flowmc.json"]
+        state.rename_terminal("@in:path2", "second")  # the parents wire edge.path into path2
+        editor.files.save()
+        assert state.dirty and editor.pending_modal is not None  # not saved: it asks first
+        text = unescape_md(editor.messages[-1][1])
+        assert "would break 2 wire(s)" in text
+        modal, go = editor.pending_modal
+        go.value = True  # "Save anyway"
+        assert not state.dirty and "second" in (tmp_path / "middle.flowmc.json").read_text()
+    finally:
+        editor.close()
+
+
+def test_an_added_interface_input_breaks_nothing_and_saves_at_once(tmp_path):
+    from flowmc.ui.interface_check import broken_parents
+
+    state = EditorState.open(example_file(tmp_path))
+    state.make_subgraph(["shift"], "shifter")
+    state.save()
+    child = EditorState.open(tmp_path / "shifter.flowmc.json")
+    child.add_terminal("in", "extra", "Number")
+    assert broken_parents(child.graph, child.path, tmp_path, default_registry()) == []
+    child.delete(["@out:path"])
+    broken = broken_parents(child.graph, child.path, tmp_path, default_registry())
+    assert broken and all("no output 'path'" in line for line in broken)

@@ -327,7 +327,7 @@ def test_node_box_grows_with_ports_and_text_and_world_flips_y():
     many = _box("b", (100, 50), ins=tuple(PortInfo(f"i{k}", "in", ("Number",)) for k in range(5)))
     assert many.h > few.h and (few.x, few.y) == (1.0, -0.5)
     assert few.w == layout.MIN_W * layout.SCALE  # a short title: the narrowest node
-    wide = _box("c", (0, 0), title="plan · Look-ahead S-curve planner")
+    wide = _box("c", (0, 0), title="plan · Look-ahead planner")
     assert wide.w > few.w and wide.title == wide.full_title and not wide.elided
     long = _box("d", (0, 0), title="spindle · " + "Spindle on and wait for speed " * 3)
     assert long.w == layout.MAX_W * layout.SCALE and long.elided and long.title.endswith("…")
