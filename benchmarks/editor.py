@@ -20,7 +20,6 @@ import argparse
 import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,7 +27,6 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "ui")]
 
 from browser_helpers import EditorPage, chromium, expected, wait_until  # noqa: E402
 from editor_graphs import chain_file, example_file  # noqa: E402
-
 from flowmc.ui import canvas_draw  # noqa: E402
 from flowmc.ui.app import Editor  # noqa: E402
 

@@ -62,6 +62,8 @@ class Actions:
             self.editor.notify("info", "nothing to paste: copy nodes first (Ctrl+C)")
             return []
         fragment = clipboard.parse(text)
+        if fragment is None:
+            return []
         with self.editor.lock:
             items = [*fragment["nodes"], *fragment["comments"], *fragment["labels"]]
             x0, y0 = min(i.pos[0] for i in items), min(i.pos[1] for i in items)

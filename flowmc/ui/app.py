@@ -1,7 +1,7 @@
 """The editor: ``flowmc serve [FILE]`` starts it. One viser server holds the node canvas (the scene),
 the palette and examples docked on the left, and the side panel on the right (Run, edit and canvas
-buttons, and tabs for the selection and its params, problems, files, the front panel and the
-device); the 3D toolpath view runs on a second server shown in a panel docked beside the palette,
+buttons, and tabs for the selection and its params, problems, files, the front panel, the device
+and sweeps); the 3D toolpath view runs on a second server shown in a panel docked beside the palette,
 collapsed until it has something to show (``extensions``). The canvas gets the rest of the page.
 
 The editor edits and runs graphs only through the core's public API, by way of its
@@ -38,6 +38,7 @@ from flowmc.ui.minimap import Minimap
 from flowmc.ui.panels import PalettePanel, ProblemsPanel
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
+from flowmc.ui.sweep_panel import SweepPanel
 from flowmc.ui.text import escape_md, md, plain
 
 __all__ = ["Editor", "serve_main"]
@@ -73,7 +74,7 @@ class Editor:
         self._titles: dict[int, str] = {}
         self._toasts: dict[int, list[Any]] = {}
         self._settles = 0
-        self._page_handlers: dict[str, Callable[[Any, Any], None]] = {}
+        self._page_handlers: dict[str, Callable[[Any, Any], object]] = {}
         self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
         self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="medium")
@@ -83,6 +84,10 @@ class Editor:
         self._build_gui()
         self.minimap = Minimap(self)
         self.extensions = Extensions(self) if extensions else None
+        self.sweep_panel: SweepPanel | None = None
+        if extensions:
+            with self.tab_group.add_tab("Sweep"):
+                self.sweep_panel = SweepPanel(self)
         self.session.on_progress(self.canvas.sync)
         self.session.on_result(self._run_finished)
         self.state.subscribe(self._on_state)
@@ -132,8 +137,8 @@ class Editor:
             self.examples = ExamplesPanel(self)
         self.palette_panel.dock_above(gui.main_panel)  # the right column: palette on top, the side panel below
         self.run_button.on_click(lambda _e: self.run())
-        for group in (self.edit_ops, self.clip_ops, self.canvas_ops, self.note_ops):
-            group.on_click(lambda e: self.edit(e.target.value))
+        for ops in (self.edit_ops, self.clip_ops, self.canvas_ops, self.note_ops):
+            ops.on_click(lambda e: self.edit(e.target.value))
         self.dark.on_update(lambda _e: self.set_theme("dark" if self.dark.value else "light"))
         for label, key, mod, action in COMMANDS:
             command = gui.add_command(label, hotkey=key, modifier=mod)
@@ -167,7 +172,7 @@ class Editor:
         self._titles.pop(client.client_id, None)
         self._refresh_title([client])
 
-    def on_page_event(self, kind: str, handler: Callable[[Any, Any], None]) -> None:
+    def on_page_event(self, kind: str, handler: Callable[[Any, Any], object]) -> None:
         """Call ``handler(client, data)`` for page events of ``kind`` (``window.flowmc.send(kind, data)``)."""
         self._page_handlers[kind] = handler
 
@@ -271,11 +276,12 @@ class Editor:
     # ------------------------------------------------------------------ actions
     def edit(self, action: str) -> None:
         """An edit command by name (the buttons' labels and the hotkeys' actions)."""
-        simple = {"Fit": self.canvas.fit, "Save": self.files.save, "Run": self.run, "Copy": self.actions.copy,
-                  "Cut": lambda: self.actions.copy(cut=True), "Paste": lambda: self.actions.paste_text(None),
-                  "Duplicate": self.actions.duplicate, "Select all": self.actions.select_all,
-                  "Layout": self.actions.auto_layout, "Comment": lambda: self.actions.add_note("comment"),
-                  "Label": lambda: self.actions.add_note("label")}
+        simple: dict[str, Callable[[], object]] = {
+            "Fit": self.canvas.fit, "Save": self.files.save, "Run": self.run, "Copy": self.actions.copy,
+            "Cut": lambda: self.actions.copy(cut=True), "Paste": lambda: self.actions.paste_text(None),
+            "Duplicate": self.actions.duplicate, "Select all": self.actions.select_all,
+            "Layout": self.actions.auto_layout, "Comment": lambda: self.actions.add_note("comment"),
+            "Label": lambda: self.actions.add_note("label")}
         with self.lock:
             if action == "Undo" and not self.state.undo():
                 self.notify("info", "nothing to undo")
@@ -306,7 +312,7 @@ class Editor:
             self.state.select(nodes=[node_id])
             return node_id
 
-    def confirm(self, title: str, text: str, button: str, action: Callable[[], None], client: Any = None) -> Any:
+    def confirm(self, title: str, text: str, button: str, action: Callable[[], object], client: Any = None) -> Any:
         """A dialog with ``button`` (does ``action`` under the lock) and "Keep editing"; returns the modal."""
         gui = client.gui if client is not None else self.gui
         with gui.add_modal(title) as modal:
@@ -355,7 +361,8 @@ class Editor:
             if request.source != "run":
                 self.status_line.content = md("{}: {}", request.source, "done" if result.ok else "a node failed")
             elif result.ok:
-                self.notify("info", f"run done in {request.seconds:.2f} s: {len(result.executed)} ran, {len(result.cached)} cached")
+                self.notify("info", f"run done in {request.seconds:.2f} s: {len(result.executed)} ran, "
+                                    f"{len(result.cached)} cached")
             else:
                 first = next(iter(errors.values()), "a node failed")
                 self.notify("error", f"run failed: {first}" + (f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""))
@@ -379,6 +386,8 @@ class Editor:
         self.session.close()
         if self.extensions is not None:
             self.extensions.close()
+        if self.sweep_panel is not None:
+            self.sweep_panel.close()
         self.server.stop()
 
 

@@ -101,8 +101,9 @@ class Canvas:
         x1, y1 = np.ceil(box[2] + pad), np.ceil(box[3] + pad)
         self._grid_box = (x0, y0, x1, y1)
         xs, ys = np.arange(x0, x1 + 1), np.arange(y0, y1 + 1)
-        segs = np.concatenate([np.stack([np.column_stack([xs, np.full_like(xs, y0)]), np.column_stack([xs, np.full_like(xs, y1)])], 1),
-                               np.stack([np.column_stack([np.full_like(ys, x0), ys]), np.column_stack([np.full_like(ys, x1), ys])], 1)])
+        verticals = np.stack([np.column_stack([xs, np.full_like(xs, y0)]), np.column_stack([xs, np.full_like(xs, y1)])], 1)
+        horizontals = np.stack([np.column_stack([np.full_like(ys, x0), ys]), np.column_stack([np.full_like(ys, x1), ys])], 1)
+        segs = np.concatenate([verticals, horizontals])
         segs = np.concatenate([segs, np.full((len(segs), 2, 1), draw.Z_GRID)], axis=2).astype(np.float32)
         colors = np.broadcast_to(np.asarray(self.theme.grid, np.uint8), segs.shape).copy()
         if self.grid is not None:
@@ -206,10 +207,12 @@ class Canvas:
         by_id = {b.node_id: b for b in boxes}
         left = min((b.x for b in boxes), default=0.0) / layout.SCALE - 230.0
         right = max((b.x + b.w for b in boxes), default=0.0) / layout.SCALE + 80.0
-        out, taken = [], []
-        items = [("in", i) for i in graph.interface.inputs] + [("out", o) for o in graph.interface.outputs]
-        for kind, item in items:
-            near = by_id.get(split_ref(item.to[0] if kind == "in" and item.to else getattr(item, "from_", "") or "")[0])
+        out: list[layout.NodeBox] = []
+        taken: list[tuple[str, float]] = []
+        items: list[tuple[str, Any, str]] = [("in", i, i.to[0] if i.to else "") for i in graph.interface.inputs]
+        items += [("out", o, o.from_) for o in graph.interface.outputs]
+        for kind, item, ref in items:
+            near = by_id.get(split_ref(ref)[0])
             pos = graph.view.terminals.get(f"{kind}.{item.name}")
             if pos is None:
                 y = -near.y / layout.SCALE if near is not None else 0.0
@@ -352,7 +355,8 @@ class Canvas:
     def _draw_pending(self) -> None:
         hit = self.pending
         box = self.by_id.get(hit.node_id) if hit is not None else None
-        spot = box.port(hit.port.kind, hit.port.name) if box is not None else None
+        spot = box.port(hit.port.kind, hit.port.name) if box is not None and hit is not None and hit.port is not None \
+            else None
         if spot is None:
             self.pending = None
             self._pending_marker.visible = False

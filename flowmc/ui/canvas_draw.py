@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from flowmc.ui.layout import COMMENT_BAR, SCALE, TITLE_H, NodeBox, NoteBox, PortSpot
-from flowmc.ui.ports import port_color
+from flowmc.ui.layout import COMMENT_BAR, SCALE, TITLE_H, NodeBox, NoteBox
+from flowmc.ui.ports import PortInfo, port_color
 
 __all__ = ["AMBIENT", "Theme", "LIGHT", "DARK", "THEMES", "mesh_rgb", "QUAD_VERTICES", "QUAD_FACES", "Quads",
            "node_quads", "port_quads", "note_quads", "wire_segments", "port_label", "status_text", "shorten",
@@ -203,9 +203,8 @@ def _value_text(value: Any) -> str:
     return shorten(str(value), 16)
 
 
-def port_label(spot: PortSpot | Any, params: dict[str, Any], wired: bool) -> str:
+def port_label(info: PortInfo, params: dict[str, Any], wired: bool) -> str:
     """An input's name, with its stored value when it is an unwired scalar param."""
-    info = getattr(spot, "info", spot)
     if info.kind == "in" and info.param and not wired and info.name in params:
         return f"{info.name} = {_value_text(params[info.name])}"
     return info.name

@@ -62,7 +62,9 @@ class WireDrag:
     def port_clicked(self, got: layout.Hit) -> None:
         canvas = self.canvas
         first, canvas.pending = canvas.pending, None
-        if first is None:
+        if got.port is None:
+            return
+        if first is None or first.port is None:
             canvas.pending = got
             other = "an input" if got.port.kind == "out" else "an output"
             canvas.notify("info", f"{ref_of(got.node_id, got.port.name)} picked: now click {other} to wire it "
@@ -121,6 +123,8 @@ class WireDrag:
 
     def _band(self, point: np.ndarray) -> None:
         """The rubber band from the start port to the pointer (a wire curve, in the start port's colour)."""
+        if self.start is None:
+            return
         _, spot = self.start
         a, b = (spot.x, spot.y), (float(point[0]), float(point[1]))
         pts = layout.wire_points(a, b) if spot.info.kind == "out" else layout.wire_points(b, a)

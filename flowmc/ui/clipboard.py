@@ -11,6 +11,7 @@ top-left corner lands at the given point.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from typing import Any
 
 from flowmc.errors import GraphError
@@ -23,7 +24,7 @@ FRAGMENT_KIND = "flowmc-fragment/1"
 MAX_FRAGMENT = 5_000_000  # characters: a pasted text longer than this is not read
 
 
-def copy(graph: Graph, node_ids: list[str], note_ids: list[str] = ()) -> str:
+def copy(graph: Graph, node_ids: Sequence[str], note_ids: Sequence[str] = ()) -> str:
     """The fragment text of ``node_ids`` (with the wires between them) and the comments and labels ``note_ids``."""
     chosen = set(node_ids)
     notes = set(note_ids)

@@ -15,10 +15,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import FlowmcError
+from flowmc.runtime.views import views
 from flowmc.ui import view3d_data
 from flowmc.ui.session import RunRequest
 from flowmc.ui.text import md
-from flowmc.runtime.views import views
 
 if TYPE_CHECKING:
     from flowmc.ui.app import Editor
@@ -33,6 +33,7 @@ class Extensions:
         self.editor = editor
         self.session = editor.session
         self.view: Any = None
+        self.view_open = False
         self.last: tuple[Any, Any] | None = None  # the last run's (result, plan)
         self.view_key = ""  # the 3D View node shown
         self.front: Any = None

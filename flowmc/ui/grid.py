@@ -111,8 +111,9 @@ def render(grid_id: str, spec: FieldSpec, rows: list[Any], errors: dict[tuple, s
         cells.append(f"<td style='{_TD}'><button data-r='{r}' data-act='up' title='move up' style='{_BTN}'>↑</button>"
                      f"<button data-r='{r}' data-act='delete' title='remove this row' style='{_BTN}'>✕</button></td>")
         body.append(f"<tr><td style='{_TD};color:#868e96'>{r + 1}</td>{''.join(cells)}</tr>")
-    return (f"<div style='overflow-x:auto;max-height:420px;overflow-y:auto;margin:0'><table data-flowmc-grid='{escape_html(grid_id)}' "
-            f"style='border-collapse:collapse;font-size:12px'><thead><tr><th style='{_TH}'>#</th>{head}</tr></thead>"
+    return (f"<div style='overflow-x:auto;max-height:420px;overflow-y:auto;margin:0'>"
+            f"<table data-flowmc-grid='{escape_html(grid_id)}' style='border-collapse:collapse;font-size:12px'>"
+            f"<thead><tr><th style='{_TH}'>#</th>{head}</tr></thead>"
             f"<tbody>{''.join(body)}</tbody></table></div>")
 
 
@@ -183,7 +184,7 @@ def apply(spec: FieldSpec, rows: list[Any], event: dict[str, Any]) -> list[Any]:
         if r > 0:
             rows[r - 1], rows[r] = rows[r], rows[r - 1]
         return rows
-    column = cols.get(event.get("col"))
+    column = cols.get(str(event.get("col")))
     if column is None:
         raise GridError(f"there is no column {event.get('col')!r}")
     if op == "set":

@@ -20,7 +20,7 @@ from flowmc.graph import split_ref
 from flowmc.ui import forms, grid
 from flowmc.ui.forms import MISSING, FieldSpec
 from flowmc.ui.state import EditorState
-from flowmc.ui.text import md, plain
+from flowmc.ui.text import md
 
 __all__ = ["Inspector", "parse_text"]
 
@@ -53,7 +53,7 @@ def parse_text(spec: FieldSpec, text: str) -> Any:
         return parts if spec.inner.kind == "string" else [_number(p, spec.inner.kind == "integer") for p in parts]
     if spec.kind == "points":
         points = []
-        for k, line in enumerate(l for l in text.splitlines() if l.strip()):
+        for k, line in enumerate(ln for ln in text.splitlines() if ln.strip()):
             try:
                 points.append([_number(p, False) for p in line.replace(";", ",").split(",")])
             except ParseError as exc:
@@ -165,10 +165,13 @@ class Inspector:
             options = spec.options if value in spec.options else (value, *spec.options)
             handle = gui.add_dropdown(label, options, initial_value=value, hint=hint, disabled=disabled)
         elif kind in ("vector2", "vector3") and len(value) == int(kind[-1]):
-            handle = (gui.add_vector2 if kind == "vector2" else gui.add_vector3)(label, tuple(value), hint=hint, disabled=disabled)
+            add_vector = gui.add_vector2 if kind == "vector2" else gui.add_vector3
+            handle = add_vector(label, tuple(value), hint=hint, disabled=disabled)
         else:
-            text_spec = spec if kind == spec.kind and kind not in ("vector2", "vector3") else FieldSpec(spec.name, "json", spec.label)
-            multiline = text_spec.kind in ("points", "json") or (text_spec.kind == "optional" and text_spec.inner.kind == "points")
+            plain_kind = kind == spec.kind and kind not in ("vector2", "vector3")
+            text_spec = spec if plain_kind else FieldSpec(spec.name, "json", spec.label)
+            multiline = text_spec.kind in ("points", "json") or (
+                text_spec.kind == "optional" and text_spec.inner.kind == "points")
             handle = gui.add_text(label, _text_of(text_spec, value), multiline=multiline, hint=hint, disabled=disabled)
             handle.on_update(lambda _e, s=text_spec, h=handle: self._text_changed(s, path, h.value))
             self._register(path, handle)
@@ -184,11 +187,16 @@ class Inspector:
         """A table param as a grid (``grid``): cells edited in place, arrow keys, tab-separated paste."""
         self.fields[(*path, "count")] = self.gui.add_markdown(self._count(spec, rows))
         self.errors[path] = self.gui.add_markdown("", visible=False)
-        grid_id = f"{self.node_id}/{spec.name}"
+        node_id = self.node_id or ""
+        grid_id = f"{node_id}/{spec.name}"
         self.grids[grid_id] = spec
-        self.fields[path] = self.gui.add_html(grid.render(grid_id, spec, rows, self.state.param_errors(self.node_id)))
+        self.fields[path] = self.gui.add_html(grid.render(grid_id, spec, rows, self.state.param_errors(node_id)))
         add = self.gui.add_button_group(f"add {spec.name}", tuple(v or "row" for v in spec.variants))
-        add.on_click(lambda e: self.grid_event(grid_id, {"op": "add", "kind": "" if e.target.value == "row" else e.target.value}))
+
+        def add_row(event: Any) -> None:
+            self.grid_event(grid_id, {"op": "add", "kind": "" if event.target.value == "row" else event.target.value})
+
+        add.on_click(add_row)
         self.fields[(*path, "add")] = add
 
     @staticmethod

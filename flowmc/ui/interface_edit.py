@@ -39,7 +39,7 @@ def add_input(graph: Graph, name: str, port_type: str, description: str = "") ->
         return f"unknown port type {port_type!r}; one of {', '.join(PORT_TYPES)}"
     refusal = _name_refusal(graph, name)
     if refusal is None:
-        _iface(graph).inputs.append(InterfaceInput(name=name, type=port_type, description=description))
+        _iface(graph).inputs.append(InterfaceInput(name=name, type=port_type, description=description, default=None))
     return refusal
 
 
@@ -57,14 +57,13 @@ def remove(graph: Graph, kind: str, name: str) -> bool:
     iface = graph.interface
     if iface is None:
         return False
-    items = iface.inputs if kind == "in" else iface.outputs
-    keep = [item for item in items if item.name != name]
-    if len(keep) == len(items):
-        return False
+    before = len(iface.inputs) + len(iface.outputs)
     if kind == "in":
-        iface.inputs = keep
+        iface.inputs = [item for item in iface.inputs if item.name != name]
     else:
-        iface.outputs = keep
+        iface.outputs = [item for item in iface.outputs if item.name != name]
+    if len(iface.inputs) + len(iface.outputs) == before:
+        return False
     graph.view.terminals.pop(f"{kind}.{name}", None)
     if not iface.inputs and not iface.outputs:
         graph.interface = None

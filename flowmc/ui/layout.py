@@ -16,6 +16,7 @@ runs past the box. Interface terminals of a sub-graph are boxes too, with ids ``
 from __future__ import annotations
 
 import unicodedata
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -143,7 +144,7 @@ class Hit:
     or "wire" (with ``wire``)."""
 
     kind: str
-    node_id: str | None = None
+    node_id: str = ""
     port: PortInfo | None = None
     wire: Any = None
 
@@ -157,7 +158,7 @@ def to_canvas(x: float, y: float) -> tuple[float, float]:
 
 
 def node_box(node_id: str, pos: tuple[float, float], inputs: list[tuple[PortInfo, str]],
-             outputs: list[tuple[PortInfo, str]], title: str, preview: list[str] = ()) -> NodeBox:
+             outputs: list[tuple[PortInfo, str]], title: str, preview: Sequence[str] = ()) -> NodeBox:
     """A box at ``pos`` (canvas px) wide enough for ``title`` and each row's input and output label
     (``(port, label text)`` pairs), with ``preview`` lines under the port rows (cut to the box)."""
     rows = max(len(inputs), len(outputs), 1)
@@ -218,7 +219,7 @@ def _distance_to_polyline(points: np.ndarray, p: np.ndarray) -> float:
 
 
 def hit(boxes: list[NodeBox], wires: dict[Any, np.ndarray], x: float, y: float, tol: float = 0.08,
-        notes: list[NoteBox] = ()) -> Hit | None:
+        notes: Sequence[NoteBox] = ()) -> Hit | None:
     """The topmost thing at world point (x, y): a port (within ``tol``), a node, a label or a comment's
     title strip, or a wire (within ``tol``). Later boxes are drawn on top, so they are tried first."""
     port_reach = max(tol, 11.0 * SCALE)

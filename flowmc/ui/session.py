@@ -20,9 +20,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from flowmc.api import Runtime
 from flowmc.errors import FlowmcError
 from flowmc.graph import Graph, Issue
-from flowmc.api import Runtime
 from flowmc.runtime import Event
 from flowmc.ui.state import EditorState
 
@@ -76,7 +76,7 @@ class PanelHost(Protocol):
     def download(self, name: str, text: str, client: Any = None) -> None:
         """Hand ``text`` to the browser as the file ``name`` (one click, no second prompt)."""
 
-    def confirm(self, title: str, text: str, button: str, action: Callable[[], None], client: Any = None) -> Any:
+    def confirm(self, title: str, text: str, button: str, action: Callable[[], object], client: Any = None) -> Any:
         """Ask in a dialog; ``action()`` runs (under the lock) when the user presses ``button``."""
 
 

@@ -16,13 +16,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
+from flowmc.api import Runtime
 from flowmc.errors import GraphError
 from flowmc.graph import Comment, Graph, Issue, Label, Node, Wire, dumps, load, loads, save, split_ref
-from flowmc.api import Runtime
 from flowmc.ui import clipboard, extract, interface_edit, wiring
 from flowmc.ui.extract import fresh_id
-from flowmc.ui.layout import terminal_of
 from flowmc.ui.history import History
+from flowmc.ui.layout import terminal_of
 from flowmc.ui.params import field_errors
 from flowmc.ui.ports import NodePorts, node_ports
 
@@ -31,6 +31,17 @@ __all__ = ["EditorState", "UNSET", "WireKey"]
 UNSET: Any = object()  # set_param(..., UNSET) removes a stored value (the default applies)
 WireKey = tuple[str, str]  # (from "node.output", to "node.input")
 MAX_UNDO = 200
+
+
+def _toggled(chosen: list[Any], picked: list[Any]) -> list[Any]:
+    """``chosen`` with each of ``picked`` taken out if it was in, else added."""
+    out = list(chosen)
+    for item in picked:
+        if item in out:
+            out.remove(item)
+        else:
+            out.append(item)
+    return out
 
 
 class EditorState:
@@ -167,7 +178,8 @@ class EditorState:
     def note(self, key: str) -> Comment | Label | None:
         """The comment or label ``#id`` (None when there is none)."""
         note_id = key[1:]
-        return next((n for n in [*self.graph.view.comments, *self.graph.view.labels] if n.id == note_id), None)
+        comment = next((c for c in self.graph.view.comments if c.id == note_id), None)
+        return comment if comment is not None else next((lb for lb in self.graph.view.labels if lb.id == note_id), None)
 
     def wire_keys(self) -> list[WireKey]:
         """Every wire the canvas draws: node wires, then interface terminal wires."""
@@ -204,7 +216,8 @@ class EditorState:
     def add_node(self, type_id: str, pos: tuple[float, float] = (0.0, 0.0), params: dict[str, Any] | None = None) -> str:
         """Add a node with a fresh id (from the type's name, or a sub-graph's file name)."""
         params = dict(params or {})
-        stem = Path(str(params["file"])).name.split(".")[0] if type_id == "subgraph" and params.get("file") else type_id.rsplit(".", 1)[-1]
+        from_file = type_id == "subgraph" and params.get("file")
+        stem = Path(str(params["file"])).name.split(".")[0] if from_file else type_id.rsplit(".", 1)[-1]
         node_id = fresh_id(stem, {n.id for n in self.graph.nodes})
         self.record()
         self.graph.nodes.append(Node(id=node_id, type=type_id, params=params, pos=(float(pos[0]), float(pos[1]))))
@@ -245,7 +258,7 @@ class EditorState:
         keep_notes = ([c for c in view.comments if c.id not in dropped], [lb for lb in view.labels if lb.id not in dropped])
         cut_terminal = [w for w in cut if w in set(self.wire_keys()) and (w[0].startswith("@") or w[1].startswith("@"))]
         if (len(keep_wires) == len(self.graph.wires) and len(keep_nodes) == len(self.graph.nodes) and not terms
-                and not cut_terminal and sum(map(len, keep_notes)) == len(view.comments) + len(view.labels)):
+                and not cut_terminal and len(keep_notes[0]) + len(keep_notes[1]) == len(view.comments) + len(view.labels)):
             return False
         self.record()
         self.graph.nodes, self.graph.wires = keep_nodes, keep_wires
@@ -336,9 +349,9 @@ class EditorState:
         nodes = [n for n in nodes if self.has_item(n) and not n.startswith("#")]
         wires, notes = list(wires), [n for n in notes if self.has_item(n)]
         if toggle:
-            for chosen, picked in ((self.selected_nodes, nodes), (self.selected_wires, wires), (self.selected_notes, notes)):
-                for item in picked:
-                    chosen.remove(item) if item in chosen else chosen.append(item)
+            self.selected_nodes = _toggled(self.selected_nodes, nodes)
+            self.selected_wires = _toggled(self.selected_wires, wires)
+            self.selected_notes = _toggled(self.selected_notes, notes)
         else:
             self.selected_nodes, self.selected_wires, self.selected_notes = nodes, wires, notes
         self._emit("selection")
@@ -351,7 +364,7 @@ class EditorState:
     def add_note(self, kind: str, text: str, pos: tuple[float, float], size: tuple[float, float] | None = None) -> str:
         """A comment box (``kind`` "comment", ``size`` in px) or a free label at ``pos``; returns its key ``#id``."""
         view = self.graph.view
-        note_id = fresh_id(kind, {n.id for n in [*view.comments, *view.labels]})
+        note_id = fresh_id(kind, {c.id for c in view.comments} | {lb.id for lb in view.labels})
         self.record()
         pos = (round(float(pos[0]), 1), round(float(pos[1]), 1))
         if kind == "comment":

@@ -112,7 +112,8 @@ _PAGE_JS = """
     return (u >= 0 && u <= 1 && v >= 0 && v <= 1) ? { u: u, v: v } : null; };
   const gridOf = (el) => el && el.closest && el.closest("table[data-flowmc-grid]");
   const cell = (g, r, c) => g.querySelector(`[data-r="${r}"][data-c="${c}"]`);
-  const gridSend = (el, extra) => flowmc.send("grid", Object.assign({ grid: gridOf(el).dataset.flowmcGrid, row: Number(el.dataset.r) }, extra));
+  const gridSend = (el, extra) =>
+    flowmc.send("grid", Object.assign({ grid: gridOf(el).dataset.flowmcGrid, row: Number(el.dataset.r) }, extra));
   document.addEventListener("change", (e) => {  // a grid cell edited
     const t = e.target;
     if (gridOf(t) && t.dataset.c !== undefined)
@@ -129,7 +130,8 @@ _PAGE_JS = """
   }, true);
   document.addEventListener("focusin", (e) => {
     const g = gridOf(e.target);
-    if (g && e.target.dataset.c !== undefined) flowmc.gridFocus = { grid: g.dataset.flowmcGrid, r: e.target.dataset.r, c: e.target.dataset.c };
+    if (g && e.target.dataset.c !== undefined)
+      flowmc.gridFocus = { grid: g.dataset.flowmcGrid, r: e.target.dataset.r, c: e.target.dataset.c };
   }, true);
   document.addEventListener("keydown", (e) => {  // arrows and Enter move between cells
     const t = e.target, g = gridOf(t);
@@ -148,7 +150,10 @@ _PAGE_JS = """
   document.addEventListener("paste", (e) => {  // Ctrl+V on the canvas: the server pastes this text, or its own copy
     const text0 = (e.clipboardData && e.clipboardData.getData("text/plain")) || "";
     if (gridOf(e.target) && e.target.dataset.c !== undefined) {  // cells from a spreadsheet: fill the grid from here
-      if (/[\\t\\n]/.test(text0.replace(/\\s+$/, ""))) { e.preventDefault(); gridSend(e.target, { op: "paste", col: e.target.dataset.c, text: text0 }); }
+      if (/[\\t\\n]/.test(text0.replace(/\\s+$/, ""))) {
+        e.preventDefault();
+        gridSend(e.target, { op: "paste", col: e.target.dataset.c, text: text0 });
+      }
       return;
     }
     if (inField(e.target)) return;
@@ -161,7 +166,8 @@ _PAGE_JS = """
     const button = e.button === 0 && e.target.closest && e.target.closest("button");
     const marker = document.querySelector("[data-flowmc-palette]");
     const root = marker && marker.closest(".mantine-ScrollArea-content");  // the palette tab's scrolling list
-    if (button && root && root.contains(button)) drag = { label: button.textContent.trim(), x: e.clientX, y: e.clientY, ghost: null };
+    if (button && root && root.contains(button))
+      drag = { label: button.textContent.trim(), x: e.clientX, y: e.clientY, ghost: null };
   }, true);
   document.addEventListener("pointermove", (e) => {
     if (drag && !drag.ghost && Math.hypot(e.clientX - drag.x, e.clientY - drag.y) > 8) {

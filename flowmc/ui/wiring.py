@@ -58,13 +58,13 @@ def terminal_refusal(graph: Graph, ports: Callable[[str], NodePorts], src: str, 
                     f"{' or '.join(inp.types)}")
         return None if dst not in item.to else f"interface input {item.name!r} already feeds {dst}"
     if dst.startswith("@out:") and not src.startswith("@"):
-        item = next((o for o in iface.outputs if o.name == dst[5:]), None) if iface is not None else None
+        given = next((o for o in iface.outputs if o.name == dst[5:]), None) if iface is not None else None
         node_id, port = split_ref(src)
         out = ports(node_id).output(port) if node_id in ids else None
-        if item is None or out is None:
+        if given is None or out is None:
             return f"there is no interface output {dst[5:]!r} or no output {src}"
-        if out.type != item.type:
-            return f"cannot wire {src} ({out.type}) to interface output {item.name!r}: it is a {item.type}"
+        if out.type != given.type:
+            return f"cannot wire {src} ({out.type}) to interface output {given.name!r}: it is a {given.type}"
         return None
     return "wire an interface input to a node input, or a node output to an interface output"
 

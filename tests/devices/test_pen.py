@@ -23,8 +23,6 @@ from flowmc.motion.path import Line, Path
 from flowmc.motion.path_steps import path_to_steps
 from flowmc.motion.trajectory import Signal, Steps
 
-from device_programs import grbl_sim  # noqa: F401 (fixture)
-
 STEP = 0.01
 PLOTTER = Machine(axes=(Axis(name="X", step_mm=STEP, vmax=50.0, amax=500.0, max_step_rate=20000.0),
                         Axis(name="Y", step_mm=STEP, vmax=50.0, amax=500.0, max_step_rate=20000.0)), period=0.001)
@@ -61,7 +59,7 @@ def test_timed_steps_switch_the_pen_output_at_exactly_the_event_ticks():
     expected = [(round(rows[i] * PLOTTER.period, 9), v) for i, v in pen_changes(path)]
     assert timeline(log.changes_of("dout", 1)) == expected  # the plotter's pen on output 1
     assert timeline(log.changes_of("tool")) == expected  # and the log names it as the tool
-    for i, v in pen_changes(path):
+    for i, _down in pen_changes(path):
         row = int(rows[i])  # log row k is card period k: the table stands on the segment's start
         np.testing.assert_allclose(log.position[row], path.segments[i].start[:2], atol=1e-9)
     assert log.state["tool_down"] is True and log.state["outputs"][0] is True  # ends on a stroke
@@ -237,7 +235,7 @@ def test_grbl_board_receives_the_pen_commands(grbl_sim):  # noqa: F811
 
 def test_by_default_no_pen_is_driven_so_a_milling_program_with_rapids_and_a_spindle_runs():
     from flowmc.devices.linuxcnc.card import trajectory_gcode
-    from flowmc.motion.gcode_read import parse_gcode
+    from flowmc.motion.gcode import parse_gcode
 
     path = parse_gcode("G21 G90\nM3 S8000\nG0 X10 Y5\nG1 X30 F600\nG0 Z5\nG0 X0 Y0\nM5\nM2\n")
     machine = Machine(axes=(Axis(name="X"), Axis(name="Y"), Axis(name="Z", min=-50, max=50)))

@@ -9,12 +9,14 @@ import json
 
 import numpy as np
 import pytest
+
 from browser_helpers import EditorPage, chromium, wait_until
 from editor_graphs import chain_file, example_file
-
 from flowmc.ui import arrange, layout
 from flowmc.ui.app import Editor
 from flowmc.ui.examples import examples_dir
+
+pytestmark = pytest.mark.browser
 
 
 @pytest.fixture(scope="module")

@@ -7,9 +7,9 @@ import json
 import random
 
 import pytest
-from editor_graphs import example_file
 
 import flowmc
+from editor_graphs import example_file
 from flowmc.errors import GraphError
 from flowmc.graph import dumps, load, loads
 from flowmc.plugins import default_registry
@@ -143,7 +143,7 @@ def test_auto_layout_cuts_crossings():
     rects, edges = _random_graph(60, seed=7)
     places = arrange.auto_layout(rects, edges)
     columns: dict[float, list[str]] = {}
-    for k, (x, y) in sorted(places.items(), key=lambda kv: kv[1][1]):
+    for k, (x, _y) in sorted(places.items(), key=lambda kv: kv[1][1]):
         columns.setdefault(x, []).append(k)
     order = [columns[x] for x in sorted(columns)]
     shuffled = [sorted(c, key=lambda k: rects[k].y) for c in order]  # the same columns in the old order
