@@ -157,6 +157,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         result = console.start(runtime, result, _start_options(args, result))
     if args.out:
         write_json_atomic(Path(args.out), {"graph": str(args.file), **result.summary()})
+    if args.snapshot:
+        from flowmc.runtime.views import write_snapshots
+
+        for written in write_snapshots(result, plan, runtime, args.snapshot):
+            print(f"3D view: {written}", file=sys.stderr)
     for name, value in result.outputs.items():
         print(f"{name} = {json.dumps(_json_safe(flowmc.runtime.summarize(value)))}")
     if console is not None and console.interrupted:
@@ -350,6 +355,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a stored param")
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
     p.add_argument("--out", metavar="results.json", help="write per-node results and outputs as JSON")
+    p.add_argument("--snapshot", metavar="DIR", help="write a PNG of every 3D View node's content into DIR")
     p.add_argument("-q", "--quiet", action="store_true", help="no per-node progress on stderr")
     jobs = p.add_argument_group("jobs (flowmc run is the explicit Start: device nodes run; Ctrl-C stops them, "
                                 "exit 130)")

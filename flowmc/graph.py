@@ -42,6 +42,9 @@ __all__ = [
     "InterfaceOutput",
     "Interface",
     "Body",
+    "Comment",
+    "Label",
+    "View",
     "Graph",
     "split_ref",
     "load",
@@ -104,7 +107,7 @@ class InterfaceInput(_Model):
     type: PortType
     description: str = ""
     default: Any = Field(None, description="Value used when not given; null: internal ports keep their own")
-    to: list[str] = Field(min_length=1, description="Internal 'node.port' targets")
+    to: list[str] = Field(default_factory=list, description="Internal 'node.port' targets (none: not wired yet)")
 
 
 class InterfaceOutput(_Model):
@@ -136,6 +139,40 @@ class Body(_Model):
         return graph
 
 
+_Size = Annotated[float, Field(gt=0)]
+TERMINAL_PATTERN = r"^(in|out)\.[A-Za-z_][A-Za-z0-9_]*$"
+
+
+class Comment(_Model):
+    """A comment box on the canvas: text over a frame behind nodes. View state: it never changes a result."""
+
+    id: str = Field(pattern=ID_PATTERN, description="Stable id, unique among comments and labels")
+    text: str = ""
+    pos: tuple[float, float] = Field((0.0, 0.0), description="Top-left corner [x, y], canvas pixels")
+    size: tuple[_Size, _Size] = Field((320.0, 200.0), description="[width, height], canvas pixels")
+
+
+class Label(_Model):
+    """A free text label on the canvas. View state."""
+
+    id: str = Field(pattern=ID_PATTERN, description="Stable id, unique among comments and labels")
+    text: str = ""
+    pos: tuple[float, float] = Field((0.0, 0.0), description="Top-left corner [x, y], canvas pixels")
+
+
+class View(_Model):
+    """How the graph is drawn apart from node positions: comments, labels, and where the interface's
+    input and output terminals sit (``"in.<name>"`` / ``"out.<name>"``). Never part of a result."""
+
+    comments: list[Comment] = Field(default_factory=list)
+    labels: list[Label] = Field(default_factory=list)
+    terminals: dict[Annotated[str, Field(pattern=TERMINAL_PATTERN)], tuple[float, float]] = Field(default_factory=dict)
+
+    @property
+    def empty(self) -> bool:
+        return not (self.comments or self.labels or self.terminals)
+
+
 class Graph(_Model):
     """A flowmc graph. ``path`` (not stored in the file) is where it was loaded from or saved to."""
 
@@ -145,6 +182,7 @@ class Graph(_Model):
     nodes: list[Node] = Field(default_factory=list)
     wires: list[Wire] = Field(default_factory=list)
     interface: Interface | None = None
+    view: View = Field(default_factory=View, description="Comments, labels, terminal places: view state only")
 
     _path: Path | None = PrivateAttr(None)
 
@@ -172,8 +210,9 @@ class Graph(_Model):
         return str(self._path) if self._path is not None else "<graph>"
 
     def fingerprint_json(self) -> str:
-        """Everything that can change a result (not title, description or positions, in bodies too)."""
-        data = self.model_dump(mode="json", exclude={"title", "description"})
+        """Everything that can change a result (not title, description, positions or the view section, in
+        bodies too)."""
+        data = self.model_dump(mode="json", exclude={"title", "description", "view"})
         return json.dumps(_without_positions(data), sort_keys=True)
 
 
@@ -299,6 +338,10 @@ def _canonical(graph: Graph) -> dict[str, Any]:
     data = graph.model_dump(by_alias=True)  # python mode: NaN stays NaN and is refused, not turned into null
     if data["interface"] is None:
         del data["interface"]
+    if graph.view.empty:
+        del data["view"]
+    else:
+        data["view"]["terminals"] = dict(sorted(data["view"]["terminals"].items()))
     return _canonical_nodes(data)
 
 

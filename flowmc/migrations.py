@@ -3,8 +3,9 @@
 ``MIGRATIONS[n]`` turns a raw (parsed JSON) graph of version ``n`` into version ``n + 1``; an
 unknown version is refused.
 
-- 1 -> 2: version 2 lets a node hold ``bodies`` (the graphs of loops and case structures); a
-  version-1 file is a version-2 file whose nodes hold none, so it loads unchanged.
+- 1 -> 2: version 2 lets a node hold ``bodies`` (the graphs of loops and case structures) and adds the
+  optional ``view`` section (comments, labels, interface terminal places); a version-1 file is a
+  version-2 file whose nodes hold no bodies and that has no view, so it loads unchanged.
 """
 
 from __future__ import annotations

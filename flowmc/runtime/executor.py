@@ -148,6 +148,7 @@ class Runtime:
         self._children: dict[str, Runtime] = {}
         self._started: dict[str, str] = {}  # node id -> digest of the job last started for it
         self.iterations = IterationCache()  # a structure's child runtime: its body's runs by content
+        self.last_result: RunResult | None = None  # a sub-graph's child runtime keeps its inner run (views, probes)
 
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Call ``listener(event)`` for every event of every run; returns an unsubscribe function."""
@@ -206,7 +207,7 @@ class Runtime:
             fed, issues = _interface_values(plan, inputs or {})
             if issues:
                 raise GraphError(_count(issues, "problem") + " with the inputs", where=where, issues=issues)
-            prepared = _Run(self, plan, fed).execute()
+            prepared = self.last_result = _Run(self, plan, fed).execute()
         return self.start(prepared, start) if start else prepared
 
     def start(self, prepared: RunResult, start: Start | bool = True) -> RunResult:
@@ -219,7 +220,8 @@ class Runtime:
         if run.start is not None:
             raise GraphError("this run has been started already; run the graph again to prepare it anew",
                              where=run.plan.graph.where)
-        return run.begin(start if isinstance(start, Start) else Start())
+        self.last_result = run.begin(start if isinstance(start, Start) else Start())
+        return self.last_result
 
 
 def _count(items: list, noun: str) -> str:

@@ -10,9 +10,9 @@ import pytest
 from pydantic import BaseModel, ConfigDict, Field
 
 import flowmc
+import flowmc.budget as budget
 from flowmc.errors import GraphError
 from flowmc.graph import dumps, loads
-import flowmc.budget as budget
 from flowmc.registry import NodeType, Out
 
 RUNS: list[float] = []
