@@ -32,6 +32,7 @@ class SimOptions:
     estop_input: int | None = None  # digital input 1-8 wired to the e-stop
     analog: str = "da"  # what the shared PWM/DA terminal gives: "da" or "pwm"
     pen_output: int | None = None  # digital output the program's tool (pen) state drives
+    inputs: tuple[tuple[float, int, bool], ...] = ()  # the world outside: (s after opening, input, closed)
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,10 @@ def _open_sim(argument: str, machine: Machine, options: DeviceOptions, **kwargs:
     sim = options.sim
     settings = {"closed_loop": sim.closed_loop, "estop_input": sim.estop_input, "analog": sim.analog,
                 "pen_output": sim.pen_output, "state": options.resume_for("sim")}
-    return SimCard(machine, **{**settings, **kwargs})
+    card = SimCard(machine, **{**settings, **kwargs})
+    for t, channel, closed in sim.inputs:
+        card.schedule_input(card.clock + t, channel, closed)
+    return card
 
 
 def _open_grbl(argument: str, machine: Machine, options: DeviceOptions, **kwargs: Any) -> MotionCard:

@@ -5,18 +5,19 @@ Every operation that moves or sets something returns the ``DeviceLog`` of what t
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 
 import numpy as np
 
-from flowmc.devices.log import DeviceLog
+from flowmc.devices.log import DeviceLog, Event
 from flowmc.devices.preflight import PreflightReport, preflight
 from flowmc.devices.ranges import CARD_6050, CardRanges
 from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["MotionCard", "HOME_METHODS"]
+__all__ = ["MotionCard", "HOME_METHODS", "waited_log"]
 
 #: ``switch``: the thesis's procedure (to the home switch at V1, off it at V2, a set distance more,
 #: zero). ``midpoint``: the XY plotter report's (find both limits, zero halfway between them).
@@ -104,6 +105,22 @@ class MotionCard(ABC):
     def status(self) -> dict:
         """A small JSON-able dict: position, state, I/O, whatever the device reports."""
 
+    def wait_input(self, channel: int, closed: bool, timeout: float, poll: float = 0.01) -> tuple[DeviceLog, float]:
+        """Wait until digital input ``channel`` is ``closed`` (True) or open, at most ``timeout`` s: the log
+        (its ``wait`` event says what happened; its outcome is ``timeout`` when the input did not come) and
+        the seconds waited.
+
+        This default polls ``read_inputs`` on the wall clock (a real device); the simulated card waits on
+        its own clock."""
+        began = time.monotonic()
+        while True:
+            waited = time.monotonic() - began
+            if self.read_inputs().get(channel, False) is closed:
+                return waited_log(self.snapshot(), channel, closed, waited, None), waited
+            if waited >= timeout:
+                return waited_log(self.snapshot(), channel, closed, waited, timeout), waited
+            time.sleep(min(poll, max(timeout - waited, 0.0)))
+
     def input_names(self) -> dict[int, str]:
         """What is wired to digital inputs, by channel (``{9: "X +lim"}``), for status displays; {} when unknown."""
         return {}
@@ -113,3 +130,18 @@ class MotionCard(ABC):
         pos = self.position()
         return DeviceLog(self.spec, self.machine.names, 0.0, [0.0], np.zeros((1, len(pos)), dtype=np.int32),
                          pos[None, :], state=self.status())
+
+
+def _level(closed: bool) -> str:
+    return "on (closed)" if closed else "off (open)"
+
+
+def waited_log(log: DeviceLog, channel: int, closed: bool, waited: float, timeout: float | None) -> DeviceLog:
+    """``log`` with the ``wait`` event of a wait for an input: how long it waited, or (``timeout`` given)
+    that the input did not come in that time, the outcome then being ``timeout``."""
+    end = float(log.t[-1]) if len(log.t) else 0.0
+    if timeout is None:
+        event = Event("wait", end, "", f"input {channel} was {_level(closed)} after {waited:.3f} s")
+    else:
+        event = Event("wait", end, "", f"input {channel} did not turn {_level(closed)} within {timeout:g} s")
+    return log.amended(events=[event], outcome="done" if timeout is None else "timeout")

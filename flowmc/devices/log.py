@@ -21,8 +21,8 @@ __all__ = ["Change", "Event", "DeviceLog", "CHANGE_KINDS", "OUTCOMES"]
 CHANGE_KINDS = ("din", "dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm", "tool")
 
 #: How an operation ended. ``done``: as commanded; the rest name what stopped it (``aborted``: a job's
-#: controlled stop, asked for by the operator).
-OUTCOMES = ("done", "limit", "soft_limit", "estop", "error", "alarm", "home_failed", "aborted")
+#: controlled stop, asked for by the operator; ``timeout``: an input waited for did not come in time).
+OUTCOMES = ("done", "limit", "soft_limit", "estop", "error", "alarm", "home_failed", "aborted", "timeout")
 
 
 class Change(NamedTuple):

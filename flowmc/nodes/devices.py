@@ -14,6 +14,7 @@ output), only Start needs it, and the simulated card carries on from the state t
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
@@ -382,3 +383,50 @@ class IONow(_DeviceNode):
 
         return io_job(params.device, _machine_for(machine), signals if signals is not None else Signal(),
                       _options(params), name=ctx.node_id)
+
+
+# ---------------------------------------------------------------- wait for an input
+
+class WaitInputParams(_DeviceParams):
+    input: Annotated[int, Field(ge=1, le=20, description="Digital input 1-20 (on the simulated card 9-20 are the "
+                                                         "axes' limit and home switches)")] = 1
+    on: Annotated[bool, Field(description="Wait for the input on (closed); off: wait for it open")] = True
+    timeout: Annotated[float, Field(ge=0, le=86_400, description="Fail when it has not come by then",
+                                    json_schema_extra={"unit": "s"})] = 10.0
+    name: Annotated[str, Field(max_length=40, description="What the input is, for messages (e.g. clamp)")] = ""
+    fail_on_timeout: Annotated[bool, Field(description="A timeout fails the node (off: 'came' says whether the "
+                                                        "input came, for a Case to branch on)")] = True
+    sim_after: Annotated[float | None, Field(ge=0, description="Simulated card: the world outside sets the input "
+                                                               "this many seconds after the wait begins (empty: "
+                                                               "never, and the wait times out)",
+                                             json_schema_extra={"unit": "s"})] = None
+
+
+@register
+class WaitInput(_DeviceNode):
+    type_id = "device.wait_input"
+    title = "Wait for input"
+    category = "Devices"
+    description = ("At Start, wait until a digital input is on (or off), at most a timeout; gives the time waited "
+                   "or fails naming the input. Order it with 'after' wires.")
+    moves = True  # it moves nothing, but it waits on a device: only Start runs it
+    Params = WaitInputParams
+    inputs = (_MACHINE_IN, _AFTER_IN)
+    outputs = (_LOG_OUT, Out("waited", "Number", doc="Seconds waited (s)"),
+               Out("came", "Bool", doc="Whether the input came before the timeout"))
+
+    def prepare(self, ctx, params: WaitInputParams, machine=None) -> Job:
+        from flowmc.devices.jobs.prepare import wait_job
+
+        options = _options(params)
+        if params.sim_after is not None:
+            world = ((params.sim_after, params.input, params.on),)
+            options = replace(options, sim=replace(options.sim, inputs=world))
+        job = wait_job(params.device, _machine_for(machine), params.input, params.on, params.timeout, params.name,
+                       options, required=params.fail_on_timeout, name=ctx.node_id)
+        ctx.log(f"ready: {job.describe()}, at most {params.timeout:g} s")
+        return job
+
+    def start(self, ctx, job: Job, after: DeviceLog | None = None) -> dict:
+        outputs = super().start(ctx, job, after)
+        return {**outputs, "came": bool(outputs["came"])}

@@ -8,7 +8,7 @@ done (a limit, an e-stop, an alarm) leaves the outputs safe and faults the job.
 
 from __future__ import annotations
 
-from flowmc.devices.jobs.job import positions_of
+from flowmc.devices.jobs.job import positions_of, wait_name
 from flowmc.devices.log import Change, DeviceLog, Event
 from flowmc.errors import DeviceError, LimitError
 
@@ -17,9 +17,11 @@ __all__ = ["InstantDriver", "stop_message"]
 
 def stop_message(job, log: DeviceLog) -> str:
     """``the jog of X ended with soft_limit: X stopped at its soft limit max 200 mm``."""
-    what = [e.message for e in log.events if e.kind in ("limit", "soft_limit", "estop", "home_failed", "error")]
+    what = [e.message for e in log.events if e.kind in ("limit", "soft_limit", "estop", "home_failed", "error")
+            or (e.kind == "wait" and log.outcome == "timeout")]
     name = {"home": "homing", "jog": f"the jog of {job.args[0]}" if job.args else "the jog",
-            "io": "setting outputs", "program": "the program"}[job.operation]
+            "io": "setting outputs", "program": "the program",
+            "wait": f"the wait for {wait_name(job.args)}" if job.operation == "wait" else ""}[job.operation]
     return f"{name} ended with {log.outcome}" + (": " + "; ".join(what) if what else "")
 
 
@@ -55,6 +57,12 @@ class InstantDriver:
             log = card.home(*job.args)
         elif job.operation == "jog":
             log = card.jog(*job.args)
+        elif job.operation == "wait":
+            channel, closed, timeout, _label, required = job.args
+            log, self.runner.extra["waited"] = card.wait_input(channel, closed, timeout)
+            self.runner.extra["came"] = log.outcome == "done"
+            if log.outcome == "timeout" and not required:  # a wait that may time out: the answer is no
+                log = log.amended(outcome="done")
         else:
             log = self._io()
         for change in log.changes:

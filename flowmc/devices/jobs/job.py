@@ -22,7 +22,7 @@ from flowmc.motion.machine import Machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["Job", "SafeOutputs", "JobStatus", "JobEvent", "STATES", "ACTIVE", "FINAL", "OPERATIONS",
+__all__ = ["Job", "SafeOutputs", "wait_name", "JobStatus", "JobEvent", "STATES", "ACTIVE", "FINAL", "OPERATIONS",
            "gcode_line"]
 
 #: queued: made, not started; running; holding: decelerating to a feed hold; held: at rest on the path;
@@ -31,7 +31,7 @@ __all__ = ["Job", "SafeOutputs", "JobStatus", "JobEvent", "STATES", "ACTIVE", "F
 STATES = ("queued", "running", "holding", "held", "stopping", "aborted", "done", "faulted")
 ACTIVE = ("running", "holding", "held", "stopping")
 FINAL = ("aborted", "done", "faulted")
-OPERATIONS = ("program", "home", "jog", "io")
+OPERATIONS = ("program", "home", "jog", "io", "wait")
 
 _LINE = re.compile(r":(\d+)$")
 
@@ -40,6 +40,12 @@ def gcode_line(name: str) -> int | None:
     """The G-code line a segment came from (``"part.ngc:12"`` -> 12), or None."""
     m = _LINE.search(name or "")
     return int(m.group(1)) if m else None
+
+
+def wait_name(args: tuple) -> str:
+    """How a wait job names what it waits for: ``input 3 (clamp) on``."""
+    channel, closed, _timeout, label, _required = args
+    return f"input {channel}{f' ({label})' if label else ''} {'on' if closed else 'off'}"
 
 
 @dataclass(frozen=True)
@@ -60,7 +66,9 @@ class Job:
     """A prepared operation for ``device`` (a spec string) on ``machine``.
 
     ``operation``: ``program`` (``motion`` with ``signals``), ``home`` (``args`` = axes, method),
-    ``jog`` (axis, distance, speed) or ``io`` (a tuple of (kind, channel, value) to set at once).
+    ``jog`` (axis, distance, speed), ``io`` (a tuple of (kind, channel, value) to set at once) or ``wait``
+    (input channel, closed, timeout s, what the input is, whether a timeout is a fault: wait until the
+    input is at that level).
     ``options``: the device's options (closed loop, pen output, ...; ``resume`` is filled at Start from the
     log of the operation before). ``report``: the pre-flight.
     ``name``: what the user calls it (the graph node that prepared it).
@@ -105,7 +113,8 @@ class Job:
     def describe(self) -> str:
         what = {"program": f"a {type(self.motion).__name__} program of {self.duration:.2f} s"
                            + (f" ({len(self.segment_names)} segments)" if self.segment_names else ""),
-                "home": "homing", "jog": "a jog", "io": "setting outputs"}[self.operation]
+                "home": "homing", "jog": "a jog", "io": "setting outputs",
+                "wait": f"waiting for {wait_name(self.args)}" if self.operation == "wait" else ""}[self.operation]
         return f"{what} on {self.device}" + (f" from node {self.name!r}" if self.name else "")
 
     def digest(self) -> str:

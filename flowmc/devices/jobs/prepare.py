@@ -22,7 +22,7 @@ from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["program_job", "home_job", "jog_job", "io_job", "start_job", "START_OPTIONS"]
+__all__ = ["program_job", "home_job", "jog_job", "io_job", "wait_job", "start_job", "START_OPTIONS"]
 
 #: What ``Start.options`` may hold for jobs: pace ("instant", "realtime", "virtual"), speed (factor of
 #: real time for the simulated card), start_at ({node id: segment number from 1}), single_block,
@@ -78,6 +78,17 @@ def io_job(device: str, machine: Machine, signals: Signal, options: DeviceOption
             raise DeviceError("a PWM duty needs a PWM frequency before it (use the PWM node)", where=name or device)
         settings.append((kind, int(ch), float(value), freq))
     return Job(device.strip(), machine, "io", args=tuple(settings), options=options or DeviceOptions(), name=name)
+
+
+def wait_job(device: str, machine: Machine, channel: int, closed: bool, timeout: float, label: str = "",
+             options: DeviceOptions | None = None, *, required: bool = True, name: str = "") -> Job:
+    """Wait at Start until digital input ``channel`` is ``closed`` (or open), at most ``timeout`` s; a
+    timeout faults the job when ``required``, else the job ends done and says the input did not come."""
+    if not (math.isfinite(timeout) and timeout >= 0):
+        raise DeviceError(f"a wait needs a finite timeout >= 0 s, got {timeout}", where=name or device)
+    unconnected(device, machine, options)  # the simulated world's inputs are checked as the card is made
+    return Job(device.strip(), machine, "wait", args=(int(channel), bool(closed), float(timeout), label.strip(), bool(required)),
+               options=options or DeviceOptions(), name=name)
 
 
 def start_job(job: Job, after: DeviceLog | None, start: Any, node_id: str) -> JobRunner:

@@ -3,7 +3,8 @@
 Streamed, a program runs through a ``Retimer`` (hold, stop, overrides and single block re-time the
 rest within every axis's limits) into a ``CardStream`` (limits, the e-stop input, the closed loop).
 Signals fire when the job's place in the program passes their time. Homing and "I/O now" run at
-once on every pace (the card computes homing as one operation; it cannot be held).
+once on every pace (the card computes homing as one operation; it cannot be held), and so does a wait
+for an input (on the card's own clock: the world's input changes are scheduled on it).
 """
 
 from __future__ import annotations
@@ -109,7 +110,7 @@ class SimStream:
     # ------------------------------------------------------------------ running
     def run(self) -> DeviceLog:
         runner, card, job = self.runner, self.card, self.job
-        if job.operation in ("home", "io"):
+        if job.operation in ("home", "io", "wait"):
             return SimInstant(runner, card).run()
         stream = CardStream(card)
         nominal, segment, signals, rapid = self._nominal()

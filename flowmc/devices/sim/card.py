@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from flowmc.devices.card import HOME_METHODS, MotionCard
+from flowmc.devices.card import HOME_METHODS, MotionCard, waited_log
 from flowmc.devices.log import Change, DeviceLog, Event
 from flowmc.devices.preflight import axis_columns, preflight, program_signals
 from flowmc.devices.ranges import CARD_6050
@@ -185,6 +185,22 @@ class SimCard(MotionCard):
             raise DeviceError(f"t = {t} s is in the past (card clock {self.clock} s)", where="sim card")
         self._schedule.append((float(t), int(channel), bool(closed)))
         self._schedule.sort()
+
+    def wait_input(self, channel: int, closed: bool, timeout: float, poll: float = 0.0) -> tuple[DeviceLog, float]:
+        """Wait on the card's clock (the axes hold still) until plain input ``channel`` is ``closed``, as
+        the world outside scheduled it, at most ``timeout`` s (``MotionCard.wait_input``)."""
+        self._ready()
+        began = self.clock
+        if self.read_inputs().get(channel, False) is not closed:
+            due = next((t for t, ch, level in self._schedule if ch == channel and level is closed), None)
+            until = began + timeout if due is None or due - began > timeout else max(due, began)
+            rows = max(math.ceil((until - began) / self.period - 1e-9), 1)
+            piece = self._execute(np.repeat(self._counts[None, :], rows + 1, axis=0), self._motion_rules())
+            if piece.estop:
+                return self._log(), self.clock - began
+        waited = self.clock - began
+        came = self.read_inputs().get(channel, False) is closed
+        return waited_log(self._log(), channel, closed, waited, None if came else timeout), waited
 
     # ---------------------------------------------------------------- rules
     def _axis_index(self, name: str) -> int:
