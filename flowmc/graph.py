@@ -161,16 +161,19 @@ class Label(_Model):
 
 
 class View(_Model):
-    """How the graph is drawn apart from node positions: comments, labels, and where the interface's
-    input and output terminals sit (``"in.<name>"`` / ``"out.<name>"``). Never part of a result."""
+    """How the graph is drawn apart from node positions: comments, labels, where the interface's input
+    and output terminals sit (``"in.<name>"`` / ``"out.<name>"``), and the probed wires. Never part of a
+    result."""
 
     comments: list[Comment] = Field(default_factory=list)
     labels: list[Label] = Field(default_factory=list)
     terminals: dict[Annotated[str, Field(pattern=TERMINAL_PATTERN)], tuple[float, float]] = Field(default_factory=dict)
+    probes: list[Annotated[str, Field(pattern=REF_PATTERN)]] = Field(
+        default_factory=list, description="Wires probed in the editor, by their source 'node.output'")
 
     @property
     def empty(self) -> bool:
-        return not (self.comments or self.labels or self.terminals)
+        return not (self.comments or self.labels or self.terminals or self.probes)
 
 
 class Graph(_Model):

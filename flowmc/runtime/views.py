@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from flowmc.runtime.schedule import Plan
+
 __all__ = ["VIEW_TYPE", "View", "views", "snapshot", "write_snapshots"]
 
 VIEW_TYPE = "view.view3d"
@@ -54,7 +56,8 @@ def _value(result: Any, plan: Any, node_id: str, port: str, outer: tuple | None)
 
 
 def views(result: Any, plan: Any, runtime: Any = None, *, _prefix: str = "", _outer: tuple | None = None) -> list[View]:
-    """Every 3D View node the run reached, in run order (sub-graphs' views where their sub-graph node ran)."""
+    """Every 3D View node the run reached, in run order (sub-graphs' views where their sub-graph node ran;
+    a structure's bodies run many times or not at all, and their views are not shown)."""
     found = []
     for node_id in result.order:
         bound = plan.nodes.get(node_id)
@@ -64,7 +67,7 @@ def views(result: Any, plan: Any, runtime: Any = None, *, _prefix: str = "", _ou
             params = bound.params.model_dump() if bound.params is not None else dict(bound.raw_params)
             values = {port: _value(result, plan, node_id, port, _outer) for port in _INPUTS}
             found.append(View(_prefix + node_id, params.get("title") or node_id, params, values))
-        elif bound.binding is not None and runtime is not None:
+        elif isinstance(bound.binding, Plan) and runtime is not None:  # a sub-graph (not a structure's bodies)
             child = runtime.child(node_id)
             inner = getattr(child, "last_result", None)
             if inner is not None:

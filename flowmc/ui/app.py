@@ -38,6 +38,7 @@ from flowmc.ui.minimap import Minimap
 from flowmc.ui.panels import PalettePanel, ProblemsPanel
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
+from flowmc.ui.structure_panel import StructureUI
 from flowmc.ui.sweep_panel import SweepPanel
 from flowmc.ui.text import escape_md, md, plain
 
@@ -88,6 +89,7 @@ class Editor:
         if extensions:
             with self.tab_group.add_tab("Sweep"):
                 self.sweep_panel = SweepPanel(self)
+        self.structure_ui = StructureUI(self)
         self.session.on_progress(self.canvas.sync)
         self.session.on_result(self._run_finished)
         self.state.subscribe(self._on_state)
@@ -264,6 +266,8 @@ class Editor:
     def _refresh_title(self, clients: list[viser.ClientHandle] | None = None) -> None:
         state = self.state
         name = state.path.name if state.path is not None else state.suggested_name + " (not saved)"
+        if state.body_place is not None:
+            name = f"{state.body_place[0]} · body {state.body_place[1]}"
         mark = " ●" if state.dirty else ""
         opened_from = " ← ".join(reversed(state.parents))
         self.header.content = md("### {}{}", name, mark) + (md("\nopened from {}", opened_from) if opened_from else "")

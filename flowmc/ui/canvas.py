@@ -20,7 +20,7 @@ import viser
 
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
-from flowmc.ui import camera, layout, viser_internals
+from flowmc.ui import camera, layout, structures, viser_internals
 from flowmc.ui import canvas_draw as draw
 from flowmc.ui.canvas_text import Texts
 from flowmc.ui.canvas_wiring import WireDrag
@@ -49,6 +49,7 @@ class Canvas:
         self.server, self.state, self.notify = server, state, notify
         self.lock = lock or threading.RLock()
         self.status: dict[str, tuple[str, float | None, str | None]] = {} if status is None else status
+        self.decorations: list[Callable[["Canvas"], dict[str, tuple]]] = []  # more labels: {key: text spec}
         self.theme = draw.LIGHT
         self.pending: layout.Hit | None = None
         self.boxes: list[layout.NodeBox] = []
@@ -148,6 +149,8 @@ class Canvas:
     def _title(self, node: Any) -> str:
         if node.type == "subgraph":
             return f"{node.id} · {node.params.get('file', 'sub-graph')}"
+        if node.type in structures.STRUCTURES:
+            return f"{node.id} · {structures.caption(self.state.graph, node.id)}"
         try:
             return f"{node.id} · {self.state.runtime.registry.lookup(node.type, self.state.base_dir).title}"
         except GraphError:
@@ -345,6 +348,8 @@ class Canvas:
             status = draw.status_text(self.status.get(box.node_id), problems)
             if status:
                 out[f"{key}/status"] = (status, (box.x, box.y - box.h - 0.06), 10 * s, "top-left", True)
+        for decorate in self.decorations:  # text others put on the canvas (probes' values)
+            out.update(decorate(self))
         for note in self.notes:
             size = COMMENT_FONT if note.kind == "comment" else LABEL_FONT
             pos = (note.x + 0.08, note.y - (layout.COMMENT_BAR * s / 2 if note.kind == "comment" else note.h / 2))

@@ -236,9 +236,10 @@ def status_text(entry: tuple[str, float | None, str | None] | None, problems: li
         return f"{len(problems)} problem{'s' if len(problems) > 1 else ''}: see Problems"
     if entry is None:
         return ""
-    kind, duration, _message = entry
+    kind, duration, message = entry
     if kind == "failed":
         return "failed: see Problems"
+    loop = f" · {message}" if message and message.startswith("iteration") else ""  # a loop's last iteration
     if kind == "done" and duration is not None:
-        return f"done · {duration * 1000:.1f} ms"
-    return kind
+        return f"done · {duration * 1000:.1f} ms{loop}"
+    return kind + loop

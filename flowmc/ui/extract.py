@@ -20,7 +20,7 @@ from flowmc.graph import Graph, Interface, InterfaceInput, InterfaceOutput, Node
 from flowmc.runtime import resolve_inside
 from flowmc.ui.ports import NodePorts
 
-__all__ = ["extract", "drop_interface_refs", "fresh_id", "node_file", "SUFFIX"]
+__all__ = ["extract", "split", "drop_interface_refs", "fresh_id", "node_file", "SUFFIX"]
 
 SUFFIX = ".flowmc.json"
 
@@ -92,12 +92,22 @@ def extract(graph: Graph, ids: list[str], file: str, base_dir: Path,
             ports: Callable[[str], NodePorts]) -> tuple[Graph, Graph, Path]:
     """Split ``graph``: returns (the graph with the selection replaced by a sub-graph node, the new
     sub-graph, the file to write it to). Nothing is written here; GraphError says why it cannot."""
-    chosen = set(ids)
-    if not chosen:
+    if not ids:
         raise GraphError("select the nodes to put into the sub-graph first", where="make sub-graph")
     target, rel = _target(file, base_dir)
-    used_ids = {n.id for n in graph.nodes} - chosen
-    new_id = fresh_id(Path(rel).name.split(".")[0], used_ids)
+    new_id = fresh_id(Path(rel).name.split(".")[0], {n.id for n in graph.nodes} - set(ids))
+    parent, child = split(graph, ids, new_id, ports)
+    child.title = Path(rel).name[: -len(SUFFIX)]
+    parent.nodes[-1].params = {"file": rel}
+    return parent, child, target
+
+
+def split(graph: Graph, ids: list[str], new_id: str, ports: Callable[[str], NodePorts],
+          node_type: str = "subgraph") -> tuple[Graph, Graph]:
+    """(``graph`` with the nodes ``ids`` replaced by one node ``new_id`` of ``node_type``, last in its
+    nodes and wired where the crossing wires were; the graph of the nodes taken out, whose interface
+    the crossing wires became). A sub-graph file and a structure's body are made this way."""
+    chosen = set(ids)
     inside = lambda ref: split_ref(ref)[0] in chosen  # noqa: E731
     in_names: set[str] = set()
     out_names: set[str] = set()
@@ -136,17 +146,17 @@ def extract(graph: Graph, ids: list[str], file: str, base_dir: Path,
                 item.from_ = f"{new_id}.{_output_for(outputs, out_names, item.from_, ports).name}"
     picked = [n for n in graph.nodes if n.id in chosen]
     x0, y0 = min(n.pos[0] for n in picked), min(n.pos[1] for n in picked)
-    child_nodes = [Node(id=n.id, type=n.type, params=dict(n.params), pos=(n.pos[0] - x0, n.pos[1] - y0)) for n in picked]
+    child_nodes = [Node(id=n.id, type=n.type, params=dict(n.params), pos=(n.pos[0] - x0, n.pos[1] - y0),
+                        bodies={k: b.model_copy(deep=True) for k, b in n.bodies.items()}) for n in picked]
     centre = (sum(n.pos[0] for n in picked) / len(picked), sum(n.pos[1] for n in picked) / len(picked))
-    stem = Path(rel).name[: -len(SUFFIX)]
-    child = Graph(title=stem, nodes=child_nodes, wires=child_wires,
+    child = Graph(title=new_id, nodes=child_nodes, wires=child_wires,
                   interface=Interface(inputs=child_inputs, outputs=list(outputs.values())))
     parent_nodes = [n.model_copy(deep=True) for n in graph.nodes if n.id not in chosen]
-    parent_nodes.append(Node(id=new_id, type="subgraph", params={"file": rel}, pos=centre))
+    parent_nodes.append(Node(id=new_id, type=node_type, params={}, pos=centre))
     parent = Graph(title=graph.title, description=graph.description, nodes=parent_nodes,
-                   wires=parent_wires, interface=parent_iface)
+                   wires=parent_wires, interface=parent_iface, view=graph.view.model_copy(deep=True))
     parent.path = graph.path
-    return parent, child, target
+    return parent, child
 
 
 def _output_for(outputs: dict[str, InterfaceOutput], used: set[str], ref: str,

@@ -61,7 +61,7 @@ class SelectionPanel:
         real = [n for n in nodes if terminal_of(n) is None]
         self.delete_button.visible = bool(nodes or wires or notes)
         self.open_button.visible = len(nodes) == 1 and not nodes[0].startswith("@") and self._file_of(nodes[0]) is not None
-        self.back_button.visible = bool(state.parents)
+        self.back_button.visible = bool(state.parents) and state.body_place is None  # a body: Structure's Back
         self.sub_name.visible = self.make_button.visible = bool(real)
         self.align.visible = len(nodes) + len(notes) >= 2
         one_note = state.note(notes[0]) if len(notes) == 1 and not nodes else None

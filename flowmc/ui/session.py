@@ -236,9 +236,15 @@ class EditorSession:
             listener(request)
 
     def _on_event(self, event: Event) -> None:
-        if event.kind != "log":
-            self.status[event.node_id] = (event.kind, event.duration, event.message)
-            self._dirty.set()
+        if event.kind == "iteration":  # a loop running: "iteration 3 of 5", kept on its line once it is done
+            self.status[event.node_id] = ("running", None, event.message)
+        elif event.kind != "log":
+            seen = self.status.get(event.node_id)
+            loop = seen[2] if seen is not None and seen[2] and seen[2].startswith("iteration") else None
+            self.status[event.node_id] = (event.kind, event.duration, event.message or loop)
+        else:
+            return
+        self._dirty.set()
 
     def _progress(self) -> None:
         for listener in tuple(self._progress_listeners):

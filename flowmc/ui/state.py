@@ -19,7 +19,7 @@ from typing import Any, Callable, Iterable
 from flowmc.api import Runtime
 from flowmc.errors import GraphError
 from flowmc.graph import Comment, Graph, Issue, Label, Node, Wire, dumps, load, loads, save, split_ref
-from flowmc.ui import clipboard, extract, interface_edit, wiring
+from flowmc.ui import clipboard, extract, interface_edit, structures, wiring
 from flowmc.ui.extract import fresh_id
 from flowmc.ui.history import History
 from flowmc.ui.layout import terminal_of
@@ -111,6 +111,9 @@ class EditorState:
     def save(self, path: str | Path | None = None) -> Path:
         """Save atomically (flowmc's canonical save) to ``path`` or the graph's own file."""
         target = Path(path) if path is not None else self.graph.path
+        if self.body_place is not None:
+            raise GraphError("this is a structure's body, saved with the graph that holds it: go back to that "
+                             "graph and save it", where=f"node {self.body_place[0]!r}")
         if target is None:
             raise GraphError("the graph has no file yet: use Save as", where=self.suggested_name)
         save(self.graph, target)
@@ -449,19 +452,58 @@ class EditorState:
     def enter(self, path: Path) -> None:
         """Edit a sub-graph's file; the open graph (unsaved changes and undo included) waits on a stack."""
         graph = load(path)
-        self._stack.append((self.graph, self._saved, self.history, self.selected_nodes))
+        self._stack.append((self.graph, self._saved, self.history, self.selected_nodes, None))
         self._set_document(graph, saved=True)
 
     def leave(self) -> None:
         """Back to the graph that opened this sub-graph (GraphError when there are unsaved changes)."""
         if not self._stack:
             raise GraphError("this is not a sub-graph opened from another graph", where=str(self.path))
-        if self.dirty:
+        place = self.body_place
+        if place is None and self.dirty:
             raise GraphError("unsaved changes: save or undo them first", where=str(self.path))
-        graph, saved, history, selected = self._stack.pop()
+        body = self.graph
+        graph, saved, history, selected, _place = self._stack.pop()
         self._set_document(graph, saved=False)
         self._saved, self.history, self.selected_nodes = saved, history, selected
+        if place is not None and structures.body_changed(graph, place, body):
+            self.record()  # the body's edits are one edit of the structure that holds it (undo takes it back)
+            structures.put_body(graph, place, body)
         self._emit("document")
+
+    # ------------------------------------------------------------ structure bodies
+    @property
+    def body_place(self) -> tuple[str, str] | None:
+        """(structure node id, body name) when a structure's body is being edited, else None."""
+        return self._stack[-1][4] if self._stack else None
+
+    def enter_body(self, node_id: str, name: str) -> None:
+        """Edit the body ``name`` of structure ``node_id`` in place of the graph (which waits, as for a
+        sub-graph); ``leave`` puts the edited body back into the structure, as one undoable edit."""
+        body = structures.body_graph(self.graph, node_id, name)
+        self._stack.append((self.graph, self._saved, self.history, self.selected_nodes, (node_id, name)))
+        self._set_document(body, saved=True)
+
+    def change(self, edit: Callable[[Graph], None]) -> None:
+        """One undoable edit made by ``edit(graph)`` on a copy (a GraphError leaves the graph as it was)."""
+        graph = self.graph.model_copy(deep=True)
+        graph.path = self.graph.path
+        edit(graph)
+        self.record()
+        self.graph = graph
+        self._emit("graph")
+
+    def make_structure(self, node_ids: Iterable[str], type_id: str) -> str:
+        """Put ``node_ids`` into a new structure's body (a case: into its True and False cases); wires that
+        crossed the selection become the body's interface. Returns the structure's id."""
+        ids = [n for n in node_ids if self.has_node(n)]
+        parent = structures.wrap(self.graph, ids, type_id, self.ports)
+        self.record()
+        self.graph.nodes, self.graph.wires, self.graph.interface = parent.nodes, parent.wires, parent.interface
+        new_id = parent.nodes[-1].id
+        self.selected_nodes, self.selected_wires = [new_id], []
+        self._emit("graph")
+        return new_id
 
     @property
     def waiting(self) -> list[Graph]:
@@ -471,7 +513,8 @@ class EditorState:
     @property
     def parents(self) -> list[str]:
         """Names of the graphs waiting for a sub-graph being edited, outermost first."""
-        return [entry[0].path.name if entry[0].path else "untitled" for entry in self._stack]
+        names = [(entry[0].path.name if entry[0].path else "untitled", entry[4]) for entry in self._stack]
+        return [f"{name} (its node {place[0]}: body {place[1]})" if place else name for name, place in names]
 
     def make_subgraph(self, node_ids: Iterable[str], file: str) -> str:
         """Move ``node_ids`` into a new graph file (``file``, relative to the graph's folder, written

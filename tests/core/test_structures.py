@@ -314,6 +314,28 @@ def test_nested_loops_announce_inner_iterations_by_path(reg):
                        ("rows/cols", "iteration 2 of 3"), ("rows/cols", "iteration 3 of 3")]
 
 
+def test_3d_views_are_found_around_loops_not_inside_their_bodies(reg):
+    """A body runs many times (or not at all): the views of a run are the graph's own."""
+    from flowmc.runtime.views import views
+
+    b = flowmc.GraphBuilder()
+    part = b.add("path.polyline", id="part", points=_square(5, 0))
+    inner_view = b.add("view.view3d", id="inner_view")
+    b.wire(part.path, inner_view.path)
+    b.input("i", "Number", [])
+    b.output("part", "Path", part.path)
+    g = flowmc.GraphBuilder()
+    loop = g.add("struct.for", id="loop", count=2, indexed=["part"], bodies={"body": b.build()})
+    view = g.add("view.view3d", id="view")
+    g.wire(loop.part, view.path)
+    rt = flowmc.Runtime(reg)
+    graph = g.build()
+    result = rt.run(graph)
+    assert result.ok, result.errors
+    found = views(result, rt.plan(graph), rt)
+    assert [v.key for v in found] == ["view"] and len(found[0].values["path"]) == 2 * 4
+
+
 # ---------------------------------------------------------------- case
 
 def _const_body(value, extra_input=False):
