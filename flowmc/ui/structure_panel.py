@@ -65,6 +65,8 @@ class StructureUI:
             self.back: Any = gui.add_button("Back to the graph", hint="Put the body back into its structure")
         self.probe_tab: Any = editor.tab_group.add_tab("Probes")
         with self.probe_tab:
+            self.probe_mode: Any = gui.add_checkbox("Click wires to probe them", False,
+                                                    hint="While on, a click on a wire adds its probe (or removes it)")
             self.probe_button: Any = gui.add_button("Probe the selected wire", hint="Select a wire on the canvas first")
             self.probe_list: Any = gui.add_markdown("")
             self.probe_folder: Any = gui.add_folder("Probe values", expand_by_default=True)
@@ -88,9 +90,17 @@ class StructureUI:
         self.back.on_click(_quietly(self.go_back))
         self.probe_button.on_click(_quietly(self.toggle_probe))
         editor.canvas.decorations.append(self._probe_labels)
-        self.state.subscribe(lambda kind: self.show() if kind != "move" else None)
+        self.state.subscribe(self._state_changed)
         self.session.on_result(lambda _request: self.show_values())
         self.session.on_progress(self._progress)
+        self.show()
+
+    def _state_changed(self, kind: str) -> None:
+        if kind == "move":
+            return
+        if kind == "selection" and self.probe_mode.value and self._selected_probe() is not None \
+                and not self.state.selected_nodes:
+            self.toggle_probe()  # probe mode: a click on a wire probes it
         self.show()
 
     # ------------------------------------------------------------------ what is selected

@@ -90,12 +90,11 @@ def test_for_loop_from_a_selection_iterations_probe_and_indicator(browser, edito
 
     page.get_by_role("button", name="Fit", exact=True).click()
     ui.settled()
+    _tab(ui, "Probes")
+    page.get_by_label("Click wires to probe them").check()  # then a click on a wire probes it
     curve = editor.canvas.curves[("loop1.path", "plan.path")]
     x, y = curve[len(curve) // 2][:2]
     ui.click_world(float(x), float(y))
-    wait_until(lambda: state.selected_wires == [("loop1.path", "plan.path")], what="the wire selected")
-    _tab(ui, "Probes")
-    page.get_by_role("button", name="Probe the selected wire", exact=True).click()
     wait_until(lambda: state.graph.view.probes == ["loop1.path"], what="the probe")
     page.get_by_role("button", name="Run", exact=True).click()
     page.get_by_text(re.compile(r"Path: 7 segments · length 140 mm")).first.wait_for(timeout=30000)

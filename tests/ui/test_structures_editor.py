@@ -143,3 +143,14 @@ def test_probes_show_values_after_a_run_and_are_saved_as_view_state(editor, tmp_
     again = flowmc.load(state.path)
     assert again.view.probes == ["move.path"]
     assert again.fingerprint_json() == flowmc.loads(flowmc.dumps(again)).fingerprint_json()
+
+
+def test_in_probe_mode_a_click_on_a_wire_probes_it(editor):
+    ui, canvas = editor.structure_ui, editor.canvas
+    ui.probe_mode.value = True
+    curve = canvas.curves[("line.path", "move.path")]
+    x, y = curve[len(curve) // 2][:2]
+    canvas.click(float(x), float(y))
+    assert editor.state.graph.view.probes == ["line.path"]
+    canvas.click(float(x), float(y))  # again: the probe goes
+    assert editor.state.graph.view.probes == []
