@@ -89,11 +89,11 @@ class Editor:
         if extensions:
             with self.tab_group.add_tab("Sweep"):
                 self.sweep_panel = SweepPanel(self)
-        self.structure_ui = StructureUI(self)
         self.session.on_progress(self.canvas.sync)
         self.session.on_result(self._run_finished)
         self.state.subscribe(self._on_state)
         self.server.on_client_connect(self._on_connect)
+        self.structure_ui = StructureUI(self)  # after the editor's own listeners: the canvas is drawn first
         self.canvas.sync()
         self.canvas.fit()  # where the first page starts
         self._refresh_side()
