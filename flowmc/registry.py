@@ -85,6 +85,13 @@ class NodeType:
         return _param_ports(cls)
 
     @classmethod
+    def param_type(cls, name: str) -> str | None:
+        """The scalar type (Number, Bool, Text) a param declares, fixed params included; None when the
+        param is not scalar (a list, a table) or does not exist."""
+        field = cls.Params.model_fields.get(name)
+        return None if field is None else _scalar_port_type(field.annotation)
+
+    @classmethod
     def dynamic_ports(cls) -> bool:
         """True when the class (or a base below NodeType) overrides ``ports``."""
         return any("ports" in vars(c) for c in cls.__mro__ if c is not NodeType and issubclass(c, NodeType))
