@@ -262,6 +262,7 @@ class Registry:
         self._origins: dict[str, str] = {}
         self.library = library
         self.failures: dict[str, str] = {}  # where (a module, an entry point, a folder) -> what went wrong
+        self.node_folders: list[Path] = []  # folders of node files loaded (another process rebuilds from them)
         self._generation = next(_generations)
         for cls in node_types:
             self.add(cls)
@@ -300,6 +301,7 @@ class Registry:
         """An independent registry with the same types and library (tests add their own types to one)."""
         other = Registry(library=self.library)
         other._types, other._origins, other.failures = dict(self._types), dict(self._origins), dict(self.failures)
+        other.node_folders = list(self.node_folders)
         return other
 
     def __contains__(self, type_id: object) -> bool:
