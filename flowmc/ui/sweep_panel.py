@@ -86,7 +86,7 @@ class SweepPanel:
                                                   "the scheduler address")
             self.workers = gui.add_number("Workers", 2, min=1, max=64, step=1,
                                           hint="Worker processes (not used with a scheduler address)")
-            self.address = gui.add_text("Scheduler", "", hint="A running Dask cluster, e.g. tcp://host:8786 "
+            self.address = gui.add_text("Dask scheduler", "", hint="A running Dask cluster, e.g. tcp://host:8786 "
                                                               "(the graph's folder is shipped to its workers); "
                                                               "empty: a LocalCluster")
             self.devices = gui.add_dropdown("Hardware devices", ("refuse", "sim"),
