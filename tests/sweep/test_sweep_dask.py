@@ -49,9 +49,9 @@ def test_rows_equal_flowmc_run_alone_and_failures_are_rows(cluster, tmp_path):
     assert [r["status"] for r in rows] == ["failed", "done", "done", "done"]
     assert "node 'check': check failed" in rows[0]["error"] and rows[0]["outputs"]["ratio"] > 0.68
     assert_same_as_run_alone(ARM, rows, tmp_path)
-    # each worker runs machine, path and stop-and-go once (they do not depend on what is swept); after that
-    # they come from its cache
-    upstream = {"machine", "path", "stop_and_go"}
+    # each worker runs machine, path, stop-and-go and its 3D view once (they do not depend on what is swept);
+    # after that they come from its cache
+    upstream = {"machine", "path", "stop_and_go", "view_stop_and_go"}
     for worker in {r["worker"] for r in rows}:
         mine = sorted((r for r in rows if r["worker"] == worker), key=lambda r: r["start"])
         assert all(not upstream & set(r["executed"]) and r["cached"] >= len(upstream) for r in mine[1:]), mine
