@@ -5,7 +5,8 @@ probing, each with the sample configuration it was written for: LinuxCNC's sim/a
 for the lathe programs (lathe*.ngc, g76.ngc, threading.ngc), its ``sim.tbl`` for the rest, and the
 ncfiles folder as the subroutine folder. rs274 reads both tables and parameter files in inches.
 At least 90 % of them must agree move by move within 1e-4 mm (inch programs to rs274's printed
-precision, 0.00005 inch); the others are listed in KNOWN_DIFFERENCES, with the reason docs/gcode.md
+precision, 0.00005 inch), and so must the round trip: flowmc's G-code out of what it read, read by
+rs274 again, makes the same moves, rotary indexing and stops as the original; the others are listed in KNOWN_DIFFERENCES, with the reason docs/gcode.md
 gives, and each must still differ for exactly that reason (so the list stays true).
 """
 
@@ -21,7 +22,8 @@ import pytest
 from flowmc.devices.linuxcnc.rs274 import MACHINE_UNITS_MM, run_rs274
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode import GcodeOptions, ToolTable, interpret
-from gcode_compare import assert_same_moves
+from flowmc.motion.gcode_write import path_to_gcode
+from gcode_compare import assert_same_canon, assert_same_moves
 
 pytestmark = pytest.mark.linuxcnc
 
@@ -31,6 +33,7 @@ DOCS = FsPath(__file__).parents[2] / "docs" / "gcode.md"
 LATHE_PROGRAMS = {"g76.ngc", "threading.ngc"}
 MM_TOL = 1e-4
 INCH_TOL = 0.5e-4 * 25.4 + 1e-9
+MM_PRINT = 0.5e-4 + 1e-9
 
 #: Programs in the count that flowmc does not read as rs274 does: name -> (what differs, why).
 KNOWN_DIFFERENCES = {
@@ -72,12 +75,20 @@ def outcome(rel: str) -> tuple[str, str]:
         return "excluded", "no motion"
     options = GcodeOptions(tool_table=ToolTable.load(table, units_mm=MACHINE_UNITS_MM),
                            machine_units_mm=MACHINE_UNITS_MM, subroutine_dirs=(NCFILES,))
+    tol = INCH_TOL if is_inch(text) else MM_TOL
+    machine = ref.in_machine_coordinates()
     try:
         result = interpret(text, file.name, options)
-        assert_same_moves(result.path, ref.in_machine_coordinates(), INCH_TOL if is_inch(text) else MM_TOL,
-                          lines=False)
+        assert_same_moves(result.path, machine, tol, lines=False)
     except (GcodeError, AssertionError) as err:
         return "different", str(err).splitlines()[0]
+    try:  # G-code in -> G-code out, and rs274 reads the output as it read the original
+        written = path_to_gcode(result.path)
+        # Both sides are rs274's prints: the original's rounding, and 0.00005 mm on our mm output.
+        assert_same_canon(run_rs274(written, name=f"out-{file.name}", tool_table=table), machine,
+                          tol + MM_PRINT)
+    except (GcodeError, AssertionError) as err:
+        return "different", "round trip: " + str(err).splitlines()[0]
     return "same", f"{len(ref)} moves"
 
 

@@ -710,7 +710,8 @@ class Interpreter:
         self.extra_pos.update(moves)
         what = ", ".join(f"{k} to {v:g}{' deg' if k in 'ABC' else ' mm'}" for k, v in moves.items())
         self.canon.dwell(0.0, self.feed, self._spindle_rpm(), src.index, i + 1,
-                         PathEvent("index", f"index {what}: flowmc has no such axis, so the job stops for it"))
+                         PathEvent("index", f"index {what}: flowmc has no such axis, so the job stops for it",
+                                   axes=tuple(sorted(self.extra_pos.items()))))
 
     def _fast_move(self, w: dict, gvals: list, src: Source, i: int) -> bool:
         """The common block, G0/G1 with X/Y/Z/F words only, without the full order of execution;
