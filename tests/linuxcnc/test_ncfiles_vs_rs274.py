@@ -3,11 +3,13 @@
 The programs counted are those rs274 interprets to the end with motion, without remaps, Python or
 probing, each with the sample configuration it was written for: LinuxCNC's sim/axis ``lathe.tbl``
 for the lathe programs (lathe*.ngc, g76.ngc, threading.ngc), its ``sim.tbl`` for the rest, and the
-ncfiles folder as the subroutine folder. rs274 reads both tables and parameter files in inches.
+ncfiles folder as the subroutine folder; where rs274 refuses a program with that table, flowmc's own
+(tools 1-9, no offsets or diameters) is tried. rs274 reads tables and parameter files in inches.
 At least 90 % of them must agree move by move within 1e-4 mm (inch programs to rs274's printed
 precision, 0.00005 inch), and so must the round trip: flowmc's G-code out of what it read, read by
-rs274 again, makes the same moves, rotary indexing and stops as the original; the others are listed in KNOWN_DIFFERENCES, with the reason docs/gcode.md
-gives, and each must still differ for exactly that reason (so the list stays true).
+rs274 again, makes the same moves, rotary indexing and stops as the original. The others are
+listed in KNOWN_DIFFERENCES, with the reason docs/gcode.md gives, and each must still differ for
+exactly that reason (so the list stays true).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from pathlib import Path as FsPath
 import numpy as np
 import pytest
 
-from flowmc.devices.linuxcnc.rs274 import MACHINE_UNITS_MM, run_rs274
+from flowmc.devices.linuxcnc.rs274 import MACHINE_UNITS_MM, TOOL_TABLE, run_rs274
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode import GcodeOptions, ToolTable, interpret
 from flowmc.motion.gcode_write import path_to_gcode
@@ -70,7 +72,11 @@ def outcome(rel: str) -> tuple[str, str]:
     try:
         ref = run_rs274(text, name=file.name, tool_table=table, subroutine_dir=NCFILES)
     except GcodeError as err:
-        return "excluded", f"rs274 refuses it: {err.message}"
+        try:  # e.g. g76.ngc: its tools' sample diameters make its comp entry move too short
+            table = TOOL_TABLE
+            ref = run_rs274(text, name=file.name, tool_table=table, subroutine_dir=NCFILES)
+        except GcodeError:
+            return "excluded", f"rs274 refuses it: {err.message}"
     if len(ref) == 0:
         return "excluded", "no motion"
     options = GcodeOptions(tool_table=ToolTable.load(table, units_mm=MACHINE_UNITS_MM),
@@ -115,7 +121,7 @@ def test_at_least_nine_in_ten_counted_programs_agree_with_rs274():
     counted = [outcome(str(f.relative_to(NCFILES)))[0] for f in programs()]
     counted = [c for c in counted if c != "excluded"]
     same = counted.count("same")
-    assert len(counted) >= 25
+    assert len(counted) >= 29
     assert same / len(counted) >= 0.9, f"{same} of {len(counted)} agree"
 
 

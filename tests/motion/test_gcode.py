@@ -243,7 +243,7 @@ def test_an_empty_program_is_an_empty_path():
     ("G1 X1 F60\nG38.2 Z-5\n", 2, "G38.2 is not supported (probing (G38.x) is not supported"),
     ("G0 X1\nG33 Z-5 K1\n", 2, "G33 needs the spindle turning"),
     ("G0 X1\nG33.1 Z-5 K1\n", 2, "G33.1 needs the spindle turning"),
-    ("G0 X1\nG76 P1 Z-1 I-1 J1 K1\n", 2, "G76 is not supported (the threading cycle"),
+    ("G0 X1\nG76 P1 Z-1 I-1 J1 K1\n", 2, "G76 needs the spindle turning"),
     ("G0 X1\nG1 X2 A90 F100\n", 2, "axis A is not supported"),
     ("G81 X1 Y1 Z-1 R1\n", 1, "G81 with no feed rate"),
     ("M6 T-2\n", 1, "tool number (T) must be >= 0"),
