@@ -135,3 +135,31 @@ def test_the_lathe_programs_use_linuxcncs_lathe_table_and_the_rest_its_mill_tabl
     assert tool_table(NCFILES / "lathe_pawn.ngc").name == "lathe.tbl"
     assert tool_table(NCFILES / "comp.ngc").name == "sim.tbl"
     assert np.isclose(MACHINE_UNITS_MM, 25.4, rtol=1e-12)
+
+
+# (useful-subroutines.ngc is left to the test above: its entry move is exactly the tool radius, which
+# rs274's inch factor, 1/0.03937007874016, tips one way and the node's exact 25.4 the other.)
+@pytest.mark.parametrize("name", ["b-index.ngc", "systems.ngc", "tort.ngc", "plasmatest.ngc", "arcspiral.ngc",
+                                  "g76.ngc"])
+def test_the_round_trip_through_a_gcode_in_gcode_out_graph_agrees_with_rs274(name, tmp_path):
+    """As a user does it: a graph reads the program (with the sample tool table, in inches) and writes
+    it back out; rs274 reads the written file as it read the original (pauses, tool changes and the
+    rotary indexing included)."""
+    import flowmc
+
+    file = NCFILES / name
+    table = tool_table(file) if name != "g76.ngc" else TOOL_TABLE
+    (tmp_path / name).write_bytes(file.read_bytes())
+    (tmp_path / "tools.tbl").write_bytes(table.read_bytes())
+    g = flowmc.GraphBuilder()
+    src = g.add("path.gcode_in", id="in", file=name, tool_table="tools.tbl", machine_units="inch",
+                subroutine_folder=".")
+    out = g.add("path.gcode_out", id="out", file="out.ngc")
+    g.wire(src.path, out.path)
+    g.save(tmp_path / "graph.flowmc.json")
+    result = flowmc.run(tmp_path / "graph.flowmc.json")
+    assert result.ok, result.errors
+    text = file.read_text(errors="replace")
+    original = run_rs274(text, name=name, tool_table=table, subroutine_dir=NCFILES).in_machine_coordinates()
+    written = run_rs274((tmp_path / "out.ngc").read_text(), name="out.ngc", tool_table=table)
+    assert_same_canon(written, original, (INCH_TOL if is_inch(text) else MM_TOL) + MM_PRINT)
