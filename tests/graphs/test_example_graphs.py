@@ -19,7 +19,7 @@ EXAMPLES = sorted(GRAPHS.glob("*.flowmc.json"))
 
 
 def run(name: str, **inputs):
-    result = flowmc.run(flowmc.load(GRAPHS / f"{name}.flowmc.json"), inputs=inputs)
+    result = flowmc.run(flowmc.load(GRAPHS / f"{name}.flowmc.json"), inputs=inputs, start=True)
     assert result.ok, result.errors
     return result
 
@@ -113,7 +113,7 @@ def test_teaching_machine_pulse_table_and_grbl_stream():
 def test_teaching_machine_on_a_grbl_board_stops_at_a_failing_line():
     with GrblSimulator(error_at={12: 20}) as sim:
         graph = flowmc.load(GRAPHS / "teaching_machine.flowmc.json")
-        result = flowmc.run(graph, inputs={"device": f"grbl:{sim.port}"})
+        result = flowmc.run(graph, inputs={"device": f"grbl:{sim.port}"}, start=True)
     assert not result.ok
     assert "line 12" in result.nodes["grbl"].error and "error:20" in result.nodes["grbl"].error
 
@@ -151,7 +151,7 @@ def test_xy_plotter_draws_in_all_quadrants_and_lifts_the_pen():
 
 
 def test_xy_plotter_refuses_a_drawing_past_the_table_edge_before_motion():
-    result = flowmc.run(flowmc.load(GRAPHS / "xy_plotter.flowmc.json"), inputs={"picture_width_mm": 400.0})
+    result = flowmc.run(flowmc.load(GRAPHS / "xy_plotter.flowmc.json"), inputs={"picture_width_mm": 400.0}, start=True)
     assert not result.ok
     error = result.nodes["card"].error
     assert "segment" in error and "soft limit" in error and "X" in error
