@@ -345,6 +345,8 @@ def _canonical(graph: Graph) -> dict[str, Any]:
         del data["view"]
     else:
         data["view"]["terminals"] = dict(sorted(data["view"]["terminals"].items()))
+        if not data["view"]["probes"]:
+            del data["view"]["probes"]  # files without probes read as they did before probes existed
     return _canonical_nodes(data)
 
 
