@@ -75,6 +75,8 @@ class NodeType:
     fixed_params: ClassVar[tuple[str, ...]] = ()  # scalar params that cannot be fed by a wire
     host_resources: ClassVar[tuple[str, ...]] = ()  # what a run holds on its host, e.g. "linuxcnc" (one per host)
     reads: ClassVar[tuple[str, ...]] = ()  # params naming every file or folder it reads: cached while they are unchanged
+    moves: ClassVar[bool] = False  # drives a device: prepare() a job when the graph runs, start() it at Start
+    start_inputs: ClassVar[tuple[str, ...]] = ()  # inputs only start() needs (an earlier device's log)
 
     @classmethod
     def ports(cls, params: Any) -> Ports:
@@ -94,6 +96,14 @@ class NodeType:
     def run(self, ctx: Any, params: Any, /, *args: Any, **inputs: Any) -> dict[str, Any]:
         """Subclasses name their inputs: ``run(self, ctx, params, path, feed=None)``. (``*args`` is never
         passed; with ``**inputs`` it lets a type checker accept every subclass's own signature.)"""
+        raise NotImplementedError
+
+    def prepare(self, ctx: Any, params: Any, /, *args: Any, **inputs: Any) -> Any:
+        """A device node (``moves``): the job, pre-flighted, from every input but ``start_inputs``. Nothing moves."""
+        raise NotImplementedError
+
+    def start(self, ctx: Any, job: Any, /, *args: Any, **start_inputs: Any) -> dict[str, Any]:
+        """A device node at the explicit Start (``ctx.start``): run ``job`` on its device; the outputs."""
         raise NotImplementedError
 
 
@@ -165,7 +175,16 @@ def _check_declaration(cls: type) -> None:
         fail("Params must be a pydantic BaseModel subclass")
     if cls.Params.model_config.get("extra") != "forbid":
         fail('Params must set model_config = ConfigDict(extra="forbid")')
-    if cls.run is NodeType.run:
+    if cls.moves:
+        if cls.prepare is NodeType.prepare or cls.start is NodeType.start:
+            fail("a node that moves (moves = True) must define prepare(ctx, params, **inputs) and "
+                 "start(ctx, job, **start_inputs)")
+        if cls.pure:
+            fail("a node that moves cannot be pure")
+        unknown = [name for name in cls.start_inputs if name not in {p.name for p in cls.inputs}]
+        if unknown:
+            fail(f"start_inputs name inputs it does not have: {unknown}")
+    elif cls.run is NodeType.run:
         fail("must define run(self, ctx, params, **inputs)")
     if not all(isinstance(p, In) for p in cls.inputs) or not all(isinstance(p, Out) for p in cls.outputs):
         fail("inputs must be a tuple of In(...), outputs a tuple of Out(...)")

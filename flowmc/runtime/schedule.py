@@ -53,6 +53,11 @@ class Plan:
     def pure(self) -> bool:
         return all(node.pure for node in self.nodes.values())
 
+    @property
+    def moves(self) -> bool:
+        """Some node drives a device: running the plan prepares jobs, only Start runs them."""
+        return any(node.moves for node in self.nodes.values())
+
     def ports(self, node_id: str) -> tuple[dict[str, In], dict[str, Out]]:
         """Inputs (data and param ports) and outputs of a node as bound in this graph."""
         node = self.nodes[node_id]
@@ -123,11 +128,12 @@ def make_plan(graph: Graph, site: Site, registry: Registry, memo: dict[Any, Any]
         for ids in find_cycles(edges):
             text = " -> ".join(ids + ids[:1])
             issues.append(Issue("cycle", ("nodes", ids[0]), f"node {ids[0]!r}: cycle {text}"))
-    size = len(checked.node_ids) + sum(n.binding.size for n in checked.nodes.values() if isinstance(n.binding, Plan))
+    size = len(checked.node_ids) + sum(getattr(n.binding, "size", 0) for n in checked.nodes.values())
     limit = budget.cap("expansion")
     if size > limit:
-        issues.append(Issue("budget", (), f"the graph expands to {size:,} nodes through its sub-graphs, over the "
-                                          f"budget of {limit:,}: use a sub-graph fewer times, or raise the limit "
+        issues.append(Issue("budget", (), f"the graph expands to {size:,} nodes through its sub-graphs and "
+                                          f"structures, over the budget of {limit:,}: use a sub-graph fewer times, "
+                                          "or raise the limit "
                                           "(FLOWMC_BUDGET_EXPANSION)"))
     return Plan(graph, site, registry, issues, checked.nodes, successors, order,
                 checked.iface_inputs, checked.iface_outputs, checked.deps, size)
