@@ -169,9 +169,14 @@ class Line(Segment):
         pts = np.asarray(points, dtype=float)
         if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
             raise PathError(f"line points must be finite (N, 3), got shape {pts.shape}", where=state.get("source"))
-        rows = list(frozen_array(pts))
+        rows = [frozen_array(p) for p in pts]
         fields = {**_defaults(), **state}
-        return [_trusted(cls, fields, start=a, end=b) for a, b in zip(rows[:-1], rows[1:])]
+        out = []
+        for a, b in zip(rows[:-1], rows[1:]):
+            line = object.__new__(cls)
+            line.__dict__.update(fields, start=a, end=b)
+            out.append(line)
+        return out
 
     @cached_property
     def length(self) -> float:
