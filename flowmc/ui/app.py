@@ -27,6 +27,7 @@ from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
 from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
+from flowmc.ui.job_panel import JobPanel
 from flowmc.ui.panels import PalettePanel, ProblemsPanel, free_spot
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
@@ -63,6 +64,8 @@ class Editor:
         self.canvas = Canvas(self.server, self.state, self.notify, self.lock, status=self.session.status)
         self._build_gui()
         self.extensions = Extensions(self) if extensions else None
+        if self.extensions is not None and self.extensions.view is not None:
+            self.job_panel.attach_view(self.extensions.view)
         self.sweep_panel: SweepPanel | None = None
         if extensions:
             with self.tab_group.add_tab("Sweep"):
@@ -91,6 +94,7 @@ class Editor:
         self.run_button = gui.add_button("Run", color="green", icon=viser.Icon.PLAYER_PLAY, hint="Validate, then run the graph")
         self.edit_ops = gui.add_button_group("Edit", ("Undo", "Redo", "Fit", "Delete"))
         self.status_line = gui.add_markdown("")
+        self.job_panel = JobPanel(self)  # Start, Hold, Stop, E-stop and the DRO: always in sight, above the tabs
         group = gui.add_tab_group()
         self.tabs = {key: group.add_tab(label) for key, label in
                      (("node", "Node"), ("add", "Add"), ("files", "Files"), ("problems", "Problems"))}
@@ -276,6 +280,7 @@ class Editor:
     def close(self) -> None:
         """Stop the session (run queue, job runner, device session), the extensions and the server."""
         self.session.close()
+        self.job_panel.close()
         if self.extensions is not None:
             self.extensions.close()
         if self.sweep_panel is not None:

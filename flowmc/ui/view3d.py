@@ -34,6 +34,7 @@ MAX_SEGMENTS = 200_000  # line segments per motion sent to the browser (longer m
 _AXIS_COLORS = {"|v|": "#222222", "X": "#d62728", "Y": "#2ca02c", "Z": "#1f77b4", "A": "#9467bd"}
 _PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
 _MARKER_RGB = (30, 30, 30)
+_JOB_TOOL_RGB = (225, 0, 225)  # the running job's tool (live): magenta, a colour no speed or path takes
 _LOG_RGB = (120, 60, 160)
 
 
@@ -76,6 +77,7 @@ class ToolpathView:
         self._closed = threading.Event()
         self._build_gui()
         self.marker = self.server.scene.add_icosphere("/tool", radius=1.0, color=_MARKER_RGB, visible=False)
+        self.job_tool = self.server.scene.add_icosphere("/job/tool", radius=1.0, color=_JOB_TOOL_RGB, visible=False)
         self._player = threading.Thread(target=self._play_loop, name="flowmc-view3d-player", daemon=True)
         self._player.start()
 
@@ -193,6 +195,7 @@ class ToolpathView:
             cam.near, cam.far, cam.up_direction = radius / 200.0, radius * 50.0, (0.0, 0.0, 1.0)
             cam.position, cam.look_at = tuple(eye), tuple(centre)
         self.marker.radius = radius * 0.025
+        self.job_tool.radius = radius * 0.04
 
     def _set_info(self, paths: list[Path], motions: list[data.Motion], machine: Machine | None) -> None:
         if not paths and not motions:
@@ -271,6 +274,16 @@ class ToolpathView:
             coords = " ".join(f"{a} {m.positions[k, i]:.3f}" for i, a in enumerate(m.axes))
             unit = "mm/s" if m.timed else "mm/tick"
             self.readout.content = md("t = {:.4f} · {} mm · speed {:.3f} {}{}", m.t[k], coords, v, unit, where)
+
+    def show_tool(self, axes: tuple[str, ...], position: Any) -> None:
+        """Where a running job's tool is now (machine axes, mm), live; ``position`` None hides it."""
+        with self._lock:
+            if position is None:
+                self.job_tool.visible = False
+                return
+            point = data.xyz(np.asarray(position, dtype=float)[None, :], tuple(axes))[0]
+            self.job_tool.position = tuple(float(c) for c in point)
+            self.job_tool.visible = True
 
     def set_time(self, t: float) -> None:
         """Put the playback at time ``t`` (clamped): moves the slider and the marker."""
