@@ -13,6 +13,7 @@ import math
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any, Callable
 
@@ -87,10 +88,17 @@ def write_json_atomic(path: Path, data: Any) -> None:
 
 def _progress_printer(total: int) -> Callable[[Any], None]:
     count = 0
+    shown = [0.0]  # when an iteration line was last printed: loops say where they are about once a second
 
     def show(event: Any) -> None:
         nonlocal count
         if event.kind in ("queued", "running"):
+            return
+        if event.kind == "iteration":
+            k, of = event.iteration or (0, None)
+            if k == 1 or k == of or time.monotonic() - shown[0] >= 1.0:
+                shown[0] = time.monotonic()
+                _err(f"        {event.node_id}: {event.message}")
             return
         if event.kind == "log":
             _err(f"        {event.node_id}: {event.message}")
@@ -149,6 +157,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         result = console.start(runtime, result, _start_options(args, result))
     if args.out:
         write_json_atomic(Path(args.out), {"graph": str(args.file), **result.summary()})
+    if args.snapshot:
+        from flowmc.runtime.views import write_snapshots
+
+        for written in write_snapshots(result, plan, runtime, args.snapshot):
+            print(f"3D view: {written}", file=sys.stderr)
     for name, value in result.outputs.items():
         print(f"{name} = {json.dumps(_json_safe(flowmc.runtime.summarize(value)))}")
     if console is not None and console.interrupted:
@@ -342,6 +355,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a stored param")
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
     p.add_argument("--out", metavar="results.json", help="write per-node results and outputs as JSON")
+    p.add_argument("--snapshot", metavar="DIR", help="write a PNG of every 3D View node's content into DIR")
     p.add_argument("-q", "--quiet", action="store_true", help="no per-node progress on stderr")
     jobs = p.add_argument_group("jobs (flowmc run is the explicit Start: device nodes run; Ctrl-C stops them, "
                                 "exit 130)")
@@ -371,7 +385,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("serve", parents=[plugins], help="open the graph editor in the browser")
     p.add_argument("file", nargs="?", help="graph file to open (default: browse the current folder)")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="port to listen on")
+    p.add_argument("--port", type=int, default=8080, help="port to listen on (default: 8080)")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("compare", parents=[plugins], help="compare a graph's motion with LinuxCNC's")

@@ -14,14 +14,12 @@ output), only Start needs it, and the simulated card carries on from the state t
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions, check_spec
-from flowmc.devices.jobs import Job, SafeOutputs
-from flowmc.devices.jobs.prepare import home_job, io_job, jog_job, program_job, start_job
 from flowmc.devices.log import DeviceLog
 from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CARD_6050
@@ -30,6 +28,9 @@ from flowmc.motion.machine import Axis, Machine, default_machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 from flowmc.registry import In, NodeType, Out, register
+
+if TYPE_CHECKING:  # the job machinery is imported when a job is prepared: `flowmc validate` stays light
+    from flowmc.devices.jobs import Job
 
 _MOTION_IN = In("motion", ("Trajectory", "Steps"), doc="The program: setpoints or a step stream")
 _MACHINE_IN = In("machine", "Machine", doc="Axis limits and period (default: the default machine)", default=None)
@@ -94,6 +95,8 @@ class _DeviceNode(NodeType):
 
     def start(self, ctx, job: Job, after: DeviceLog | None = None) -> dict:
         try:
+            from flowmc.devices.jobs.prepare import start_job
+
             runner = start_job(job, after, ctx.start, ctx.node_id)
         except DeviceError as err:
             if err.log is not None:
@@ -177,6 +180,9 @@ class CardOutput(_DeviceNode):
 
     def prepare(self, ctx, params: CardOutputParams, motion, signals=None, machine=None) -> Job:
         machine = _machine_for(machine, motion)
+        from flowmc.devices.jobs import SafeOutputs
+        from flowmc.devices.jobs.prepare import program_job
+
         job = program_job(params.device, machine, motion, signals, _options(params),
                           safe=SafeOutputs(tuple(params.safe_outputs_on)), name=ctx.node_id)
         ctx.log(f"ready: {job.describe()}; pre-flight passed")
@@ -202,6 +208,8 @@ class Home(_DeviceNode):
 
     def prepare(self, ctx, params: HomeParams, machine=None) -> Job:
         axes = tuple(params.axes.replace(",", "").replace(" ", "").upper()) or None
+        from flowmc.devices.jobs.prepare import home_job
+
         return home_job(params.device, _machine_for(machine), axes, params.method, _options(params), name=ctx.node_id)
 
 
@@ -223,6 +231,8 @@ class Jog(_DeviceNode):
     outputs = (_LOG_OUT,)
 
     def prepare(self, ctx, params: JogParams, machine=None) -> Job:
+        from flowmc.devices.jobs.prepare import jog_job
+
         return jog_job(params.device, _machine_for(machine), params.axis.strip().upper(), params.distance, params.speed,
                        _options(params), name=ctx.node_id)
 
@@ -368,5 +378,7 @@ class IONow(_DeviceNode):
     outputs = (_LOG_OUT, Out("inputs", "Number", doc="Input levels as a bit mask: bit n-1 is input n"))
 
     def prepare(self, ctx, params: _DeviceParams, signals=None, machine=None) -> Job:
+        from flowmc.devices.jobs.prepare import io_job
+
         return io_job(params.device, _machine_for(machine), signals if signals is not None else Signal(),
                       _options(params), name=ctx.node_id)

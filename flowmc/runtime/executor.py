@@ -24,7 +24,7 @@ from flowmc.digest import Undigestable, digest
 from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, Issue, load
 from flowmc.registry import Registry
-from flowmc.runtime.cache import CacheEntry, NodeCache, signature
+from flowmc.runtime.cache import CacheEntry, IterationCache, NodeCache, signature
 from flowmc.runtime.context import NodeContext, Site, resolve_inside
 from flowmc.runtime.events import Event, EventBus, Listener
 from flowmc.runtime.schedule import Plan, make_plan
@@ -147,6 +147,8 @@ class Runtime:
         self._plans: dict[tuple, Plan] = {}
         self._children: dict[str, Runtime] = {}
         self._started: dict[str, str] = {}  # node id -> digest of the job last started for it
+        self.iterations = IterationCache()  # a structure's child runtime: its body's runs by content
+        self.last_result: RunResult | None = None  # a sub-graph's child runtime keeps its inner run (views, probes)
 
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Call ``listener(event)`` for every event of every run; returns an unsubscribe function."""
@@ -155,6 +157,7 @@ class Runtime:
     def clear_cache(self) -> None:
         with self._run_lock:
             self.cache.clear()
+            self.iterations.clear()
             self._children.clear()
 
     def child(self, key: str) -> "Runtime":
@@ -204,7 +207,7 @@ class Runtime:
             fed, issues = _interface_values(plan, inputs or {})
             if issues:
                 raise GraphError(_count(issues, "problem") + " with the inputs", where=where, issues=issues)
-            prepared = _Run(self, plan, fed).execute()
+            prepared = self.last_result = _Run(self, plan, fed).execute()
         return self.start(prepared, start) if start else prepared
 
     def start(self, prepared: RunResult, start: Start | bool = True) -> RunResult:
@@ -217,7 +220,8 @@ class Runtime:
         if run.start is not None:
             raise GraphError("this run has been started already; run the graph again to prepare it anew",
                              where=run.plan.graph.where)
-        return run.begin(start if isinstance(start, Start) else Start())
+        self.last_result = run.begin(start if isinstance(start, Start) else Start())
+        return self.last_result
 
 
 def _count(items: list, noun: str) -> str:
@@ -269,7 +273,9 @@ class _Run:
         self.prepared: dict[str, Any] = {}  # the jobs as the run prepared them
 
     def emit(self, kind: str, node_id: str, duration: float | None = None, message: str | None = None) -> None:
-        event = Event(kind, node_id, duration, message)  # type: ignore[arg-type]
+        self.announce(Event(kind, node_id, duration, message))  # type: ignore[arg-type]
+
+    def announce(self, event: Event) -> None:
         self.events.append(event)
         self.runtime.events.emit(event)
 
@@ -440,7 +446,7 @@ class _Run:
             self.emit("log", node.id, message=message)
 
         ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id),
-                          self.start)
+                          self.start, _announce=self.announce)
         later = node.cls.start_inputs
         if phase == "prepare":
             return node.cls().prepare(ctx, params, **{k: v for k, v in kwargs.items() if k not in later})
