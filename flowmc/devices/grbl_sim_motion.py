@@ -26,10 +26,11 @@ __all__ = ["MotionModel", "PLANNER_BLOCKS", "OVERRIDE_BYTES"]
 PLANNER_BLOCKS = 15
 _SUBSTEP = 0.001  # s: the model integrates in steps of a millisecond
 #: GRBL 1.1's real-time override bytes.
-OVERRIDE_BYTES = {0x90: ("feed", "reset"), 0x91: ("feed", 10), 0x92: ("feed", -10), 0x93: ("feed", 1),
-                  0x94: ("feed", -1), 0x95: ("rapid", 100), 0x96: ("rapid", 50), 0x97: ("rapid", 25),
-                  0x99: ("spindle", "reset"), 0x9A: ("spindle", 10), 0x9B: ("spindle", -10), 0x9C: ("spindle", 1),
-                  0x9D: ("spindle", -1)}
+OVERRIDE_BYTES: dict[int, tuple[str, int | str]] = {
+    0x90: ("feed", "reset"), 0x91: ("feed", 10), 0x92: ("feed", -10), 0x93: ("feed", 1), 0x94: ("feed", -1),
+    0x95: ("rapid", 100), 0x96: ("rapid", 50), 0x97: ("rapid", 25),
+    0x99: ("spindle", "reset"), 0x9A: ("spindle", 10), 0x9B: ("spindle", -10), 0x9C: ("spindle", 1),
+    0x9D: ("spindle", -1)}
 
 
 @dataclass

@@ -94,7 +94,10 @@ class ToolpathView:
         self.marker = self.server.scene.add_line_segments(
             "/tool", _marker_lines(1.0), data.linear_rgb(np.full((3, 2, 3), _MARKER_RGB, np.uint8)), thickness=4.0,
             thickness_units="screen", visible=False)
-        self.job_tool = self.server.scene.add_icosphere("/job/tool", radius=1.0, color=_JOB_TOOL_RGB, visible=False)
+        # Lines like the paths', not a mesh: a browser without a GPU compiles no new shader when it first shows.
+        self.job_tool = self.server.scene.add_line_segments(
+            "/job/tool", _marker_lines(1.0), data.linear_rgb(np.full((3, 2, 3), _JOB_TOOL_RGB, np.uint8)),
+            thickness=7.0, thickness_units="screen", visible=False)
         self._player = threading.Thread(target=self._play_loop, name="flowmc-view3d-player", daemon=True)
         self._player.start()
 
@@ -225,7 +228,7 @@ class ToolpathView:
             cam.near, cam.far, cam.up_direction = radius / 200.0, radius * 50.0, (0.0, 0.0, 1.0)
             cam.position, cam.look_at = tuple(eye), tuple(centre)
         self.marker.points = _marker_lines(radius * 0.05)
-        self.job_tool.radius = radius * 0.03
+        self.job_tool.points = _marker_lines(radius * 0.08)
 
     def _set_info(self, paths: list[Path], motions: list[data.Motion], machine: Machine | None) -> None:
         if not paths and not motions:
@@ -312,7 +315,7 @@ class ToolpathView:
                 self.job_tool.visible = False
                 return
             point = data.xyz(np.asarray(position, dtype=float)[None, :], tuple(axes))[0]
-            self.job_tool.position = tuple(float(c) for c in point)
+            self.job_tool.position = (float(point[0]), float(point[1]), float(point[2]))
             self.job_tool.visible = True
 
     def set_time(self, t: float) -> None:

@@ -7,7 +7,6 @@ import threading
 import time
 
 import numpy as np
-import pytest
 
 import flowmc
 from flowmc.devices.jobs import Job, JobRunner

@@ -55,7 +55,7 @@ class GrblDriver:
         self._reports = 0
 
     def run(self) -> DeviceLog:
-        card, job, runner = self.card, self.job, self.runner
+        card, job = self.card, self.job
         self.lines = motion_gcode(job.motion, card.machine, job.signals, card.tolerance, card.pen)
         streamer = card.streamer
         streamer.poll = min(streamer.poll, POLL)
