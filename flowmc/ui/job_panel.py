@@ -186,21 +186,23 @@ class JobPanel:
         else:
             self.hold()
 
-    def stop(self) -> None:
-        """Controlled stop of the running job; no job after it starts."""
+    def _halt(self) -> Any:
+        """Keep every job not yet started from starting; the running one (to stop), or None."""
         with self._lock:
             start, runner = self._start, self._running()
         if start is not None:
             start.stop()
+        return runner
+
+    def stop(self) -> None:
+        """Controlled stop of the running job; no job after it starts."""
+        runner = self._halt()
         if runner is not None:
             runner.stop()
 
     def estop(self) -> None:
         """E-stop the running job (no job after it starts); with none running, the Device tab's card."""
-        with self._lock:
-            start, runner = self._start, self._running()
-        if start is not None:
-            start.stop()
+        runner = self._halt()
         if runner is not None:
             runner.estop()
             return
