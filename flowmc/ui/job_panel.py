@@ -76,7 +76,7 @@ class JobPanel:
     # ------------------------------------------------------------------ layout
     def _build(self) -> None:
         gui = self.gui
-        self.folder = gui.add_folder("Machine", expand_by_default=True)
+        self.folder = gui.add_folder("Machine", expand_by_default=False)  # unfolded to Start; then in sight
         with self.folder:
             self.start_button = gui.add_button("Start", color="green", icon=viser.Icon.PLAYER_PLAY,
                                                hint="Pre-flight the graph, then run its device nodes (Ctrl+Shift+Enter)")

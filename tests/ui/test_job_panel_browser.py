@@ -53,6 +53,7 @@ def _run_then_start(ui: EditorPage) -> None:
     ui.page.get_by_role("button", name="Run", exact=True).click()
     ui.editor.session.wait()
     _responsive(ui)
+    ui.page.get_by_text("Machine", exact=True).first.click()  # unfold the job panel
     ui.page.get_by_role("button", name="Start", exact=True).click()
 
 
