@@ -76,6 +76,7 @@ class Stream:
     sent: int = 0
     reports: list = field(default_factory=list)
     events: list = field(default_factory=list)
+    status: dict = field(default_factory=dict)  # the last status report, parsed
 
 
 class GrblStreamer:
@@ -91,6 +92,7 @@ class GrblStreamer:
         self._serial = None
         self._pending = bytearray()
         self._t0 = time.monotonic()
+        self._control = None
 
     # ------------------------------------------------------------ link
     def connect(self) -> None:
@@ -160,6 +162,10 @@ class GrblStreamer:
     def feed_hold(self) -> None:
         self._write(b"!")
 
+    def realtime(self, data: bytes) -> None:
+        """Real-time bytes (hold, resume, reset, overrides): GRBL acts on them at once, outside its buffer."""
+        self._write(data)
+
     def resume(self) -> None:
         self._write(b"~")
 
@@ -179,10 +185,12 @@ class GrblStreamer:
         raise DeviceError(f"no status report within {self.timeout:g} s", where=self.port)
 
     # ------------------------------------------------------------ streaming
-    def stream(self, lines: list[ProgramLine], wait_idle: bool = True) -> Stream:
+    def stream(self, lines: list[ProgramLine], wait_idle: bool = True, control=None) -> Stream:
         """Send ``lines`` with character counting; raise DeviceError on error, alarm, silence or a lost port.
 
-        The error's ``.stream`` holds what was seen up to then.
+        ``control(stream)``: called between reads (every 50 ms or sooner) and after each status report, so a
+        job can send real-time bytes and follow the reports; what it raises ends the stream. The error's
+        ``.stream`` holds what was seen up to then.
         """
         import serial
 
@@ -192,6 +200,7 @@ class GrblStreamer:
                 raise DeviceError(f"line is {len(raw)} bytes, more than GRBL's {RX_BUFFER_SIZE}-byte buffer",
                                   where=f"line {i + 1} ({lines[i].source})")
         st = Stream()
+        self._control = control
         in_flight: collections.deque[int] = collections.deque()
         buffered = 0
         last_poll = last_answer = time.monotonic()
@@ -207,6 +216,8 @@ class GrblStreamer:
                     self._write(b"?")
                     last_poll = now
                 reply = self._read_line(0.05)
+                if control is not None:
+                    control(st)
                 if reply is None:
                     if time.monotonic() - last_answer > self.timeout:
                         self._fail(st, lines, f"GRBL stopped answering for {self.timeout:g} s", st.acked + 1)
@@ -233,10 +244,12 @@ class GrblStreamer:
             err = self._vanished(exc, st, lines)
             err.stream = st
             raise err from None
+        finally:
+            self._control = None
         return st
 
     def _report(self, st: Stream, reply: str) -> str:
-        status = parse_status(reply)
+        status = st.status = parse_status(reply)
         pos = status.get("MPos") or status.get("WPos") or []
         st.reports.append((time.monotonic() - self._t0, status["state"], list(pos)))
         return status["state"]
@@ -248,7 +261,10 @@ class GrblStreamer:
             reply = self._read_line(self.poll)
             while reply is not None:
                 if reply.startswith("<"):
-                    return self._report(st, reply)
+                    state = self._report(st, reply)
+                    if self._control is not None:
+                        self._control(st)
+                    return state
                 if reply.startswith("ALARM:"):
                     return "Alarm"
                 reply = self._read_line(0.0)

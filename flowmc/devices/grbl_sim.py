@@ -43,6 +43,8 @@ import threading
 import time
 import tty
 
+from flowmc.devices.grbl_sim_motion import OVERRIDE_BYTES, MotionModel
+
 __all__ = ["GrblSimulator", "RX_BUFFER_SIZE", "LINE_MAX"]
 
 RX_BUFFER_SIZE = 128
@@ -66,7 +68,8 @@ class GrblSimulator:
 
     def __init__(self, *, error_at: dict[int, int] | None = None, alarm_at: dict[int, int] | None = None,
                  vanish_after: int | None = None, travel: tuple[tuple[float, float], ...] = ((-200.0, 200.0),) * 3,
-                 line_time: float = 0.001, idle_timeout: float = 30.0, lifetime: float = 600.0):
+                 line_time: float = 0.001, idle_timeout: float = 30.0, lifetime: float = 600.0,
+                 motion: bool = False, accel: float = 200.0, rapid_rate: float = 6000.0):
         self.error_at = dict(error_at or {})
         self.alarm_at = dict(alarm_at or {})
         self.vanish_after = vanish_after
@@ -82,6 +85,8 @@ class GrblSimulator:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self.mpos = [0.0, 0.0, 0.0]  # machine position survives a soft reset, as on GRBL
+        self.model = MotionModel(self.mpos, accel=accel, rapid_rate=rapid_rate) if motion else None
+        self.bytes_seen: list[tuple[float, int]] = []  # (monotonic time, byte) of every real-time byte
         self._reset_state()
         self.alarm = 0
 
@@ -147,20 +152,32 @@ class GrblSimulator:
         self._write(text.encode() + b"\r\n")
 
     def _status(self) -> str:
-        state = "Alarm" if self.alarm else "Hold:0" if self.hold else "Run" if b"\n" in self.rx else "Idle"
-        pos = ",".join(f"{v:.3f}" for v in self.mpos)
-        rpm = self.spindle if self.spindle_dir in (3, 4) else 0.0
-        return f"<{state}|MPos:{pos}|Bf:15,{RX_BUFFER_SIZE - len(self.rx)}|FS:{self.feed:.0f},{rpm:.0f}>"
+        model = self.model
+        if model is None:
+            state = "Alarm" if self.alarm else "Hold:0" if self.hold else "Run" if b"\n" in self.rx else "Idle"
+            rpm = self.spindle if self.spindle_dir in (3, 4) else 0.0
+            return (f"<{state}|MPos:{','.join(f'{v:.3f}' for v in self.mpos)}|Bf:15,{RX_BUFFER_SIZE - len(self.rx)}"
+                    f"|FS:{self.feed:.0f},{rpm:.0f}>")
+        state = "Alarm" if self.alarm else model.state()
+        if state == "Idle" and b"\n" in self.rx:
+            state = "Run"
+        ov = model.overrides
+        rpm = self.spindle * ov["spindle"] / 100.0 if self.spindle_dir in (3, 4) else 0.0
+        acc = {3: "S", 4: "C"}.get(self.spindle_dir, "") + {8: "F", 7: "M"}.get(self.coolant, "")
+        free = 15 - len(model.queue) - (model.block is not None)
+        return (f"<{state}|MPos:{','.join(f'{v:.3f}' for v in model.position)}|Bf:{free},{RX_BUFFER_SIZE - len(self.rx)}"
+                f"|FS:{model.speed * 60:.0f},{rpm:.0f}|Ov:{ov['feed']},{ov['rapid']},{ov['spindle']}"
+                + (f"|A:{acc}" if acc else "") + ">")
 
     # ------------------------------------------------------------ serving
     def _serve(self) -> None:
-        started = last_traffic = last_line = time.monotonic()
+        started = last_traffic = last_line = last_step = time.monotonic()
         try:
             while not self._stop.is_set():
                 now = time.monotonic()
                 if now - last_traffic > self.idle_timeout or now - started > self.lifetime:
                     break
-                ready, _, _ = select.select([self._master], [], [], min(self.line_time, 0.01))
+                ready, _, _ = select.select([self._master], [], [], min(self.line_time, 0.002 if self.model else 0.01))
                 if ready:
                     try:
                         data = os.read(self._master, 1024)
@@ -169,19 +186,46 @@ class GrblSimulator:
                     if data:
                         last_traffic = time.monotonic()
                         self._receive(data)
-                if (not self.hold and b"\n" in self.rx and time.monotonic() - last_line >= self.line_time):
+                if self.model is not None:
+                    now = time.monotonic()
+                    self.model.advance(now - last_step)
+                    last_step = now
+                    self.mpos = self.model.position
+                if (not self.hold and b"\n" in self.rx and time.monotonic() - last_line >= self.line_time
+                        and self._may_process()):
                     last_line = time.monotonic()
                     if not self._process_line():
                         break
         finally:
             self._close()
 
+    def _may_process(self) -> bool:
+        """With the motion model: a move waits for room in the planner; M-codes and dwells wait until it
+        has run empty (GRBL synchronises them with motion)."""
+        model = self.model
+        if model is None:
+            return True
+        line = _strip(bytes(self.rx[:self.rx.index(b"\n")]).decode("ascii", errors="replace"))
+        if not model.room:
+            return False
+        return not (("M" in line or "G4" in line) and model.busy)
+
     def _receive(self, data: bytes) -> None:
         for byte in data:
+            if byte in (_RESET, _STATUS, _HOLD, _RESUME) or byte >= 0x80:
+                self.bytes_seen.append((time.monotonic(), byte))
             if byte == _RESET:
+                moving = self.model is not None and self.model.moving
+                if self.model is not None:
+                    self.model.clear()
+                    self.mpos = self.model.position
                 self._reset_state()
+                if moving:  # GRBL loses its position when reset while moving: alarm 3, locked
+                    self.alarm = 3
                 self.resets += 1
-                if self.alarm not in (1, 2):  # hard/soft-limit alarms survive a reset
+                if self.alarm not in (1, 2, 3):  # hard/soft-limit alarms survive a reset
+                    self.alarm = 0
+                elif self.alarm == 3 and not moving:
                     self.alarm = 0
                 self._write(BANNER)
                 if self.alarm:
@@ -189,9 +233,18 @@ class GrblSimulator:
             elif byte == _STATUS:
                 self._reply(self._status())
             elif byte == _HOLD:
-                self.hold = self.hold or b"\n" in self.rx
+                self.hold = self.hold or b"\n" in self.rx or (self.model is not None and self.model.busy)
+                if self.model is not None:
+                    self.model.hold = self.hold
             elif byte == _RESUME:
                 self.hold = False
+                if self.model is not None:
+                    self.model.hold = False
+            elif byte in OVERRIDE_BYTES:
+                if self.model is not None:
+                    self.model.override(byte)
+            elif byte >= 0x80:
+                pass  # another real-time byte GRBL knows (safety door, jog cancel, ...): not modelled
             elif len(self.rx) >= RX_BUFFER_SIZE:
                 self.overflowed = True
             else:
@@ -254,6 +307,8 @@ class GrblSimulator:
         if line == "$H":
             self.alarm = 0
             self.mpos = [0.0, 0.0, 0.0]
+            if self.model is not None:
+                self.model.position = list(self.mpos)
             return "ok"
         if line == "$$":
             for text in ("$20=1", "$21=0", "$22=1", "$110=6000.000", "$120=200.000",
@@ -308,6 +363,8 @@ class GrblSimulator:
             elif letter == "P":
                 dwell_p = value
         if motion_seen == 4:
+            if dwell_p is not None and self.model is not None:
+                self.model.dwell(dwell_p)
             return "ok" if dwell_p is not None else "error:26"
         if motion_seen is not None:
             self.motion = motion_seen
@@ -315,16 +372,19 @@ class GrblSimulator:
             return "ok"
         if self.motion in (1, 2, 3) and self.feed <= 0:
             return "error:22"
-        new = list(self.mpos)
+        base = self.model.planned_end() if self.model is not None else self.mpos
+        new = list(base)
         for axis, value in target.items():
-            new[axis] = value if self.absolute else self.mpos[axis] + value
+            new[axis] = value if self.absolute else base[axis] + value
         for axis, (lo, hi) in enumerate(self.travel):
             if not lo <= new[axis] <= hi:
                 if jog:  # a jog past the travel is refused, not an alarm
                     return "error:15"
                 self._raise_alarm(2)
                 return None
-        self.mpos = new
+        if self.model is not None:
+            self.model.move(new, self.feed, rapid=self.motion == 0 and not jog)
+        self.mpos = new if self.model is None else self.mpos
         return "ok"
 
 

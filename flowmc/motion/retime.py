@@ -29,7 +29,7 @@ __all__ = ["Retimer"]
 
 _EPS = 1e-12
 ACCEL_MARGIN = 0.01
-_STOP_TOL = 1e-6  # mm: closer than this to a stop point, the clamp at the point itself stops the job
+_STOP_TOL = 1e-5  # mm: closer than this to a stop point, the clamp at the point itself stops the job
 _RHO_MAX = 1e6  # 1/s: a rate change this fast is immediate (where nothing moves)
 
 
@@ -213,18 +213,16 @@ class Retimer:
                 if speed > _EPS and left > _STOP_TOL:  # within a micrometre (or standing still, a dwell)
                     goal = min(goal, math.sqrt(2 * self.brake * left) / speed)  # the clamp below stops it
         lo, hi = -math.inf, math.inf
-        # the period spans samples k..k+2 at most: bound r_dot with the plan's acceleration at each of them
-        rows = (ddq, self.ddq[k + 1], self.ddq[min(k + 2, self.n - 1)])
-        for acc_row in rows:
-            acc = acc_row * (r * r)
-            for i in range(len(dq)):
-                b = float(dq[i])
-                if abs(b) > _EPS:
-                    a_lo = (-self.amax[i] - acc[i]) / b
-                    a_hi = (self.amax[i] - acc[i]) / b
-                    if b < 0:
-                        a_lo, a_hi = a_hi, a_lo
-                    lo, hi = max(lo, a_lo), min(hi, a_hi)
+        # The period spans samples k..k+2 at most: bound r_dot with the plan's acceleration at each of them.
+        # The velocity direction turns within the period too: the bounds from the plan's velocity at the
+        # next samples tighten these where keeping the rate (r_dot = 0) is within them; where the plan itself
+        # runs at the limit there, its own timing is kept.
+        k2 = min(k + 2, self.n - 1)
+        for vel_rows, acc_rows in (((dq,) * 3, (ddq, self.ddq[k + 1], self.ddq[k2])),
+                                   ((self.dq[k + 1], self.dq[k2]), (self.ddq[k + 1], self.ddq[k2]))):
+            b_lo, b_hi = _rate_bounds(vel_rows, acc_rows, r, self.amax)
+            if lo == -math.inf or b_lo <= 0.0 <= b_hi:
+                lo, hi = max(lo, b_lo), min(hi, b_hi)
         want = (goal - r) / T
         r_dot = min(max(want, lo), hi) if lo <= hi else 0.5 * (lo + hi)
         r_new = max(r + r_dot * T, 0.0)
@@ -256,3 +254,19 @@ class Retimer:
         k = np.minimum(np.floor(t).astype(np.int64), len(values) - 2)
         f = (t - k)[..., None] if t.ndim else t - k
         return values[k] + f * (values[k + 1] - values[k])
+
+
+def _rate_bounds(vel_rows, acc_rows, r: float, amax: np.ndarray) -> tuple[float, float]:
+    """The r_dot interval keeping q'' r^2 + q' r_dot within +-amax on every axis, for each (q', q'') pair."""
+    lo, hi = -math.inf, math.inf
+    for vel, acc_row in zip(vel_rows, acc_rows):
+        acc = acc_row * (r * r)
+        for i in range(len(vel)):
+            b = float(vel[i])
+            if abs(b) > _EPS:
+                a_lo = (-amax[i] - acc[i]) / b
+                a_hi = (amax[i] - acc[i]) / b
+                if b < 0:
+                    a_lo, a_hi = a_hi, a_lo
+                lo, hi = max(lo, a_lo), min(hi, a_hi)
+    return lo, hi

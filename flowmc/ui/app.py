@@ -34,6 +34,7 @@ from flowmc.ui.files_panel import FilesPanel
 from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
 from flowmc.ui.interface_panel import InterfacePanel
+from flowmc.ui.job_panel import JobPanel
 from flowmc.ui.minimap import Minimap
 from flowmc.ui.panels import PalettePanel, ProblemsPanel
 from flowmc.ui.selection_panel import SelectionPanel
@@ -85,6 +86,8 @@ class Editor:
         self._build_gui()
         self.minimap = Minimap(self)
         self.extensions = Extensions(self) if extensions else None
+        if self.extensions is not None and self.extensions.view is not None:
+            self.job_panel.attach_view(self.extensions.view)
         self.sweep_panel: SweepPanel | None = None
         if extensions:
             with self.tab_group.add_tab("Sweep"):
@@ -120,6 +123,7 @@ class Editor:
         self.canvas_ops = gui.add_button_group("Canvas", ("Fit", "Layout"))
         self.note_ops = gui.add_button_group("Add", ("Comment", "Label"))
         self.status_line = gui.add_markdown("")
+        self.job_panel = JobPanel(self)  # Start, Hold, Stop, E-stop and the DRO: always in sight, above the tabs
         group = gui.add_tab_group()
         self.tabs = {key: group.add_tab(label) for key, label in
                      (("node", "Node"), ("problems", "Problems"), ("files", "Files"))}
@@ -388,6 +392,7 @@ class Editor:
     def close(self) -> None:
         """Stop the session (run queue, job runner, device session), the extensions and the server."""
         self.session.close()
+        self.job_panel.close()
         if self.extensions is not None:
             self.extensions.close()
         if self.sweep_panel is not None:

@@ -39,6 +39,7 @@ MAX_SEGMENTS = 200_000  # line segments per motion sent to the browser (longer m
 _AXIS_COLORS = {"|v|": "#222222", "X": "#d62728", "Y": "#2ca02c", "Z": "#1f77b4", "A": "#9467bd"}
 _PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
 _MARKER_RGB = (30, 30, 30)
+_JOB_TOOL_RGB = (225, 0, 225)  # the running job's tool (live): magenta, a colour no speed or path takes
 _LOG_RGB = (120, 60, 160)
 
 
@@ -93,6 +94,10 @@ class ToolpathView:
         self.marker = self.server.scene.add_line_segments(
             "/tool", _marker_lines(1.0), data.linear_rgb(np.full((3, 2, 3), _MARKER_RGB, np.uint8)), thickness=4.0,
             thickness_units="screen", visible=False)
+        # Lines like the paths', not a mesh: a browser without a GPU compiles no new shader when it first shows.
+        self.job_tool = self.server.scene.add_line_segments(
+            "/job/tool", _marker_lines(1.0), data.linear_rgb(np.full((3, 2, 3), _JOB_TOOL_RGB, np.uint8)),
+            thickness=7.0, thickness_units="screen", visible=False)
         self._player = threading.Thread(target=self._play_loop, name="flowmc-view3d-player", daemon=True)
         self._player.start()
 
@@ -223,6 +228,7 @@ class ToolpathView:
             cam.near, cam.far, cam.up_direction = radius / 200.0, radius * 50.0, (0.0, 0.0, 1.0)
             cam.position, cam.look_at = tuple(eye), tuple(centre)
         self.marker.points = _marker_lines(radius * 0.05)
+        self.job_tool.points = _marker_lines(radius * 0.08)
 
     def _set_info(self, paths: list[Path], motions: list[data.Motion], machine: Machine | None) -> None:
         if not paths and not motions:
@@ -301,6 +307,16 @@ class ToolpathView:
             coords = " ".join(f"{a} {m.positions[k, i]:.3f}" for i, a in enumerate(m.axes))
             unit = "mm/s" if m.timed else "mm/tick"
             self.readout.content = md("t = {:.4f} · {} mm · speed {:.3f} {}{}", m.t[k], coords, v, unit, where)
+
+    def show_tool(self, axes: tuple[str, ...], position: Any) -> None:
+        """Where a running job's tool is now (machine axes, mm), live; ``position`` None hides it."""
+        with self._lock:
+            if position is None:
+                self.job_tool.visible = False
+                return
+            point = data.xyz(np.asarray(position, dtype=float)[None, :], tuple(axes))[0]
+            self.job_tool.position = (float(point[0]), float(point[1]), float(point[2]))
+            self.job_tool.visible = True
 
     def set_time(self, t: float) -> None:
         """Put the playback at time ``t`` (clamped): moves the slider and the marker."""

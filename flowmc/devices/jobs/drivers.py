@@ -13,6 +13,12 @@ def driver_for(runner, card):
         from flowmc.devices.jobs.sim_driver import SimInstant, SimStream
 
         return SimInstant(runner, card) if runner.pace == "instant" else SimStream(runner, card)
+    from flowmc.devices.grbl import GrblCard
     from flowmc.devices.jobs.card_driver import InstantDriver
+
+    if isinstance(card, GrblCard) and runner.job.operation == "program":
+        from flowmc.devices.jobs.grbl_driver import GrblDriver
+
+        return GrblDriver(runner, card)
 
     return InstantDriver(runner, card)

@@ -1,0 +1,165 @@
+"""A program job on a GRBL board, through its real-time bytes.
+
+The program streams with character counting (``GrblStreamer.stream``) while the driver polls status
+with ``?`` at 10 Hz and, between reads, turns the runner's commands into GRBL's real-time bytes:
+feed hold ``!``, resume ``~``, and the override bytes (feed 0x90 reset to 100 %, 0x91/0x92 +-10 %,
+0x93/0x94 +-1 %; rapid 0x95/0x96/0x97 for 100/50/25 %; spindle 0x99 reset, 0x9A-0x9D steps). A stop
+is a feed hold and, once GRBL reports ``Hold:0`` (at rest on the path, position kept), a soft reset
+(Ctrl-X), which clears the rest of the job and switches spindle and coolant off. The e-stop is the
+soft reset at once: GRBL stops without deceleration and, as it was moving, loses its position
+(ALARM:3; home or unlock before the next job). Each status report is a tick: GRBL's machine position
+(its own setpoint; it has no encoder), the line it is executing (lines acknowledged minus the blocks
+still in its planner), the overrides and the spindle/coolant state it reports. Single block is not a
+GRBL feature: it is refused with a message.
+"""
+
+from __future__ import annotations
+
+import time
+
+from flowmc.devices.grbl_program import motion_gcode
+from flowmc.devices.jobs.job import gcode_line, positions_of
+from flowmc.devices.log import DeviceLog, Event
+from flowmc.errors import DeviceError
+
+__all__ = ["GrblDriver", "override_bytes"]
+
+PLANNER_BLOCKS = 15
+POLL = 0.1  # s between ``?`` status requests while a job runs (10 Hz; the issue asks for 5 Hz or more)
+
+
+class _Ended(Exception):
+    def __init__(self, state: str, message: str):
+        super().__init__(message)
+        self.state, self.message = state, message
+
+
+def override_bytes(kind: str, now: float, want: float) -> bytes:
+    """The real-time bytes that take GRBL's ``kind`` override from ``now`` to ``want`` (%)."""
+    if kind == "rapid":
+        return {100: b"\x95", 50: b"\x96", 25: b"\x97"}[int(want)]
+    reset, up10, down10, up1, down1 = (0x90, 0x91, 0x92, 0x93, 0x94) if kind == "feed" else (0x99, 0x9A, 0x9B, 0x9C, 0x9D)
+    out = bytearray([reset])
+    step = int(round(want)) - 100
+    out += bytes([up10 if step > 0 else down10]) * (abs(step) // 10)
+    out += bytes([up1 if step > 0 else down1]) * (abs(step) % 10)
+    return bytes(out)
+
+
+class GrblDriver:
+    def __init__(self, runner, card):
+        self.runner, self.card, self.job = runner, card, runner.job
+        self.overrides = {"feed": 100.0, "rapid": 100.0, "spindle": 100.0}
+        self.lines: list = []
+        self.ended: _Ended | None = None
+        self._reports = 0
+
+    def run(self) -> DeviceLog:
+        card, job = self.card, self.job
+        self.lines = motion_gcode(job.motion, card.machine, job.signals, card.tolerance, card.pen)
+        streamer = card.streamer
+        streamer.poll = min(streamer.poll, POLL)
+        self.events: list[Event] = []
+        try:
+            st = streamer.stream(self.lines, control=self._control)
+        except _Ended as end:
+            return self._finish(end)
+        except DeviceError as err:  # an error, an alarm or a lost port: the streamer has stopped GRBL
+            stream = getattr(err, "stream", None)
+            if stream is not None:
+                err.log = card._log(stream, "alarm" if "ALARM" in err.message else "error")
+            raise
+        self._tick(st, final=True)
+        return card._log(st, "done", [*self.events, Event("done", st.reports[-1][0] if st.reports else 0.0, "",
+                                                          f"{st.acked} lines acknowledged")])
+
+    # ------------------------------------------------------------------ between reads
+    def _control(self, st) -> None:
+        self.st = st
+        if len(st.reports) != self._reports:
+            self._reports = len(st.reports)
+            self._tick(st)
+        for name, value in self.runner.take_commands():
+            self._command(name, value, st)
+        state = st.status.get("state", "")
+        if self.runner.state == "holding" and state.startswith("Hold:0"):
+            self.runner.set_state("held", f"held at {self._where(st)}")
+        elif self.runner.state == "stopping" and state.startswith("Hold:0"):
+            self.card.streamer.soft_reset()  # at rest: the reset keeps the position and clears the rest
+            raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
+
+    def _command(self, name: str, value, st) -> None:
+        runner, streamer = self.runner, self.card.streamer
+        state = runner.state
+        runner.command_times.setdefault(f"applied:{name}", time.perf_counter())
+        if name == "estop":
+            streamer.realtime(b"\x18")
+            raise _Ended("aborted", f"e-stop: soft reset at {self._where(st)} (GRBL stops at once)")
+        if name == "hold" and state == "running":
+            streamer.realtime(b"!")
+            runner.set_state("holding", f"feed hold at {self._where(st)}")
+        elif name == "resume" and state in ("holding", "held"):
+            streamer.realtime(b"~")
+            runner.set_state("running", f"resumed at {self._where(st)}")
+        elif name == "stop" and state in ("running", "holding", "held"):
+            streamer.realtime(b"!")
+            runner.set_state("stopping", f"stopping at {self._where(st)}")
+        elif name in ("feed", "rapid", "spindle"):
+            streamer.realtime(override_bytes(name, self.overrides[name], float(value)))
+            self.overrides[name] = float(value)
+            runner.emit("log", f"{name} override {value:g} %", **{name: float(value)})
+        elif name == "single_block":
+            runner.emit("log", "single block is not a GRBL feature: ignored")
+        self.events.append(Event("job", self._t(st), "", f"{name} at {self._where(st)}"))
+
+    # ------------------------------------------------------------------ telling
+    def _t(self, st) -> float:
+        return st.reports[-1][0] if st.reports else 0.0
+
+    def _executing(self, st) -> int:
+        """The line GRBL is executing (0-based): acknowledged lines minus the blocks still in its planner."""
+        buf = st.status.get("Bf") or [PLANNER_BLOCKS]
+        queued = max(PLANNER_BLOCKS - int(buf[0]), 0)
+        return min(max(st.acked - queued, 0), max(len(self.lines) - 1, 0))
+
+    def _where(self, st) -> str:
+        if not self.lines:
+            return "the start"
+        i = self._executing(st)
+        return f"line {i + 1} ({self.lines[i].source})"
+
+    def _tick(self, st, final: bool = False) -> None:
+        status, runner = st.status, self.runner
+        pos = status.get("MPos") or status.get("WPos")
+        if pos is None:
+            return
+        n = len(self.job.machine.names)
+        here = positions_of([pos[i] if i < len(pos) else 0.0 for i in range(n)])
+        i = self._executing(st)
+        progress = 1.0 if final else i / max(len(self.lines), 1)
+        acc = str(status.get("A", ""))
+        fs = status.get("FS") or [0.0, 0.0]
+        outputs = {"spindle_rpm": float(fs[1]) if len(fs) > 1 and ("S" in acc or "C" in acc) else 0.0,
+                   "dout": [1] if "F" in acc else [], "tool_down": "S" in acc and self.card.pen is not None}
+        source = self.lines[i].source if self.lines else ""
+        runner.emit("tick", t=self._t(st), commanded=here, actual=None, where=f"line {i + 1} ({source})",
+                    line=gcode_line(source), progress=progress,
+                    time_left=self.job.duration * (1.0 - progress) * 100.0 / max(self.overrides["feed"], 1.0),
+                    outputs=outputs)
+
+    def _finish(self, end: _Ended) -> DeviceLog:
+        card, runner, st = self.card, self.runner, self.st
+        try:
+            st.status = card.streamer.status()
+            st.reports.append((time.monotonic() - card.streamer._t0, st.status["state"], list(st.status.get("MPos", []))))
+        except DeviceError:
+            pass
+        self.events += [Event("stop", self._t(st), "", end.message),
+                        Event("safe", self._t(st), "", "outputs left safe: GRBL's soft reset switched spindle and "
+                                                       "coolant off (M5 M9)")]
+        self._tick(st)
+        runner.message = end.message
+        outcome = "estop" if end.message.startswith("e-stop") else "aborted"
+        log = card._log(st, outcome, self.events)
+        runner.set_state(end.state, end.message)
+        return log
