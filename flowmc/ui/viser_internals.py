@@ -16,7 +16,8 @@ The page script (``install_page``) defines ``window.flowmc``: ``send(kind, data)
 the server as a value of one text field, the page channel (viser's own ``GuiUpdateMessage`` for
 that field, so the guard below checks it like any control; the script hides its row; a counter
 makes every message new), and ``download(name, text)``. It moves viser's notifications to the
-bottom left corner of the canvas, and points ``iframe[data-flowmc-port]`` at
+top of the right-hand column, over the palette (``NOTIFICATION_CSS``), where they cover no part of the
+canvas, and points ``iframe[data-flowmc-port]`` at
 the other name of this machine (``127.0.0.1`` <-> ``localhost``) with the frame's token in its
 address and in viser's ``websocket`` parameter (a cross-site frame gets no cookie): the browser
 runs a cross-site frame in its own process, so the 3D view's work never stalls the editor's canvas.
@@ -58,6 +59,11 @@ _SECURITY_HEADERS = {"Referrer-Policy": "no-referrer", "X-Content-Type-Options":
 _build_lock = threading.Lock()
 CHANNEL_LABEL = "flowmc page events"  # the text field the page script sends through (hidden)
 
+# Notifications sit at the top of the right-hand column (the palette's place, as wide as the column), not
+# over the canvas: a refusal never hides the ports it is about. They expire (``Editor.notify``).
+NOTIFICATION_CSS = (".mantine-Notifications-root { top: 44px !important; bottom: auto !important; left: auto !important; "
+                    "right: 14px !important; width: 296px !important; max-width: 296px !important; transform: none !important; }")
+
 _PAGE_JS = """
 (function flowmcPage(channel) {
   if (window.flowmc) { window.flowmc.channel = channel; return; }
@@ -79,8 +85,7 @@ _PAGE_JS = """
     setTimeout(() => URL.revokeObjectURL(url), 60000);
   };
   const style = document.createElement("style");
-  style.textContent = `.mantine-Notifications-root { top: auto !important; bottom: 12px !important;
-      left: 12px !important; width: 300px !important; }`;
+  style.textContent = `NOTIFICATION_CSS`;
   document.head.appendChild(style);
   const otherHost = () => {
     const h = location.hostname;
@@ -249,7 +254,8 @@ def run_js(client: Any, source: str) -> None:
 def install_page(client: Any, channel: Any) -> None:
     """``window.flowmc`` in ``client``'s page; its events arrive as updates of the text field ``channel``
     (labelled ``CHANNEL_LABEL``, which the script hides)."""
-    source = _PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
+    source = (_PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
+              .replace("NOTIFICATION_CSS", NOTIFICATION_CSS))
     _send(client, source)
 
 

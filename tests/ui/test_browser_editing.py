@@ -6,6 +6,7 @@ on the canvas, and the first view framing the whole graph every time."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -223,3 +224,22 @@ def test_the_first_view_frames_the_whole_graph_every_time(browser, tmp_path):
             ui.page.close()
     finally:
         editor.close()
+
+
+def test_notifications_stay_off_the_canvas_never_pile_up_and_expire(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    ui.wire("table.path", "shift.dx")  # refused: a Path cannot feed a Number
+    toasts = page.locator(".mantine-Notification-root", has_text="cannot wire")
+    toasts.first.wait_for(timeout=10000)
+    canvas = page.evaluate("(() => { const r = window.__viserMutable.canvas.getBoundingClientRect(); "
+                           "return [r.left, r.top, r.right, r.bottom]; })()")
+    box = toasts.first.bounding_box()
+    assert box["x"] >= canvas[2] - 1, (box, canvas)  # beside the canvas, over the right-hand column
+    for k in range(6):  # a burst of messages: the oldest go
+        editor.notify("info", f"message {k}")
+    page.locator(".mantine-Notification-root", has_text="message 5").wait_for(timeout=10000)
+    page.wait_for_timeout(500)
+    assert page.locator(".mantine-Notification-root", has_text=re.compile("message|cannot wire")).count() <= 3
+    wait_until(lambda: page.locator(".mantine-Notification-root", has_text="message").count() == 0, 15,
+               "the messages to expire")
