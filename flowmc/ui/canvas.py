@@ -339,7 +339,7 @@ class Canvas:
                 out[f"{key}/row/{k}"] = (line, (box.x + layout.PAD * s, top - (k + 0.5) * layout.PREVIEW_H * s),
                                          layout.PREVIEW_FONT * s, "center-left", True)
             problems = self.problems.get(box.node_id, [])
-            if problems:
+            if draw.has_badge(box.node_id, self.status, self.problems):
                 out[f"{key}/badge"] = (str(len(problems)) if len(problems) > 1 else "!",
                                        (box.x + box.w - 0.14, box.y - layout.TITLE_H * s / 2), 11 * s, "center-center", False)
             status = draw.status_text(self.status.get(box.node_id), problems)
