@@ -50,7 +50,8 @@ from viser import _messages
 
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
-__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "install_page", "download", "run_js", "set_tips",
+__all__ = ["guarded_server", "lock_flat_camera", "fold_narrow_controls", "set_page_title", "install_page", "download",
+           "run_js", "set_tips",
            "MAX_UPLOAD_BYTES", "CHANNEL_LABEL"]
 
 MAX_UPLOAD_BYTES = 32 * 1024 * 1024  # a graph file is far smaller; G-code files are not uploaded
@@ -244,6 +245,30 @@ def lock_flat_camera(client: Any) -> None:
 def set_page_title(client: Any, title: str) -> None:
     """The browser tab's title (the editor puts the file name and the unsaved-changes mark there)."""
     _send(client, f"document.title = {json.dumps(title)};")
+
+
+# viser lays its controls out as a sheet over the lower part of the scene when the page is narrow (the
+# 3D view docked beside the editor is): fold it to its title bar once, so the toolpath is seen whole;
+# a click on the bar ("Connected", viser's status line) opens it again.
+_FOLD_NARROW_JS = """
+(function flowmcFold() {
+  if (window.__flowmcFolded) return;
+  let tries = 0;
+  const go = () => {
+    if (window.innerWidth >= 700) return;
+    const bar = [...document.querySelectorAll("div")].find(d => d.childElementCount === 0
+      && d.textContent.trim() === "Connected" && d.getBoundingClientRect().height > 0);
+    if (bar) { window.__flowmcFolded = true; bar.click(); return; }
+    if (++tries < 150) setTimeout(go, 100);
+  };
+  go();
+})();
+"""
+
+
+def fold_narrow_controls(client: Any) -> None:
+    """In a narrow page (under 700 px), fold viser's control sheet so that the scene shows whole."""
+    _send(client, _FOLD_NARROW_JS)
 
 
 def run_js(client: Any, source: str) -> None:
