@@ -61,9 +61,12 @@ _build_lock = threading.Lock()
 CHANNEL_LABEL = "flowmc page events"  # the text field the page script sends through (hidden)
 
 # Notifications sit at the top of the right-hand column (the palette's place, as wide as the column), not
-# over the canvas: a refusal never hides the ports it is about. They expire (``Editor.notify``).
+# over the canvas: a refusal never hides the ports it is about. They expire (``Editor.notify``), and
+# clicks go through them to the palette below, except on their close buttons.
 NOTIFICATION_CSS = (".mantine-Notifications-root { top: 44px !important; bottom: auto !important; left: auto !important; "
-                    "right: 14px !important; width: 296px !important; max-width: 296px !important; transform: none !important; }")
+                    "right: 14px !important; width: 296px !important; max-width: 296px !important; transform: none !important; "
+                    "pointer-events: none !important; } .mantine-Notifications-root * { pointer-events: none !important; } "
+                    ".mantine-Notifications-root button { pointer-events: auto !important; }")
 
 _PAGE_JS = """
 (function flowmcPage(channel) {

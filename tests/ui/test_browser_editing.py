@@ -311,3 +311,26 @@ def test_a_failed_node_gets_a_badge_and_its_error_is_in_the_problems_list(page_o
     page.get_by_role("tab", name="Problems").click()
     message = next(iter(editor.session.run_errors().values()))
     page.get_by_role("button", name=re.compile(re.escape(message[:30]))).first.wait_for(timeout=10000)
+
+
+def test_a_notification_over_the_palette_does_not_block_it(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    editor.notify("error", "a long message " * 12)
+    toast = page.locator(".mantine-Notification-root", has_text="a long message")
+    toast.wait_for(timeout=10000)
+    page.wait_for_timeout(500)  # its entry animation
+    over = toast.bounding_box()
+    labels = set(editor.palette.by_label)
+    under = None
+    for button in page.get_by_role("button").all():
+        box = button.bounding_box()
+        if box and button.inner_text().strip() in labels:
+            x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+            if over["x"] <= x <= over["x"] + over["width"] and over["y"] <= y <= over["y"] + over["height"]:
+                under = (x, y)
+                break
+    assert under is not None, "no palette entry under the notification"
+    before = len(editor.state.graph.nodes)
+    page.mouse.click(*under)
+    wait_until(lambda: len(editor.state.graph.nodes) == before + 1, what="the palette click to go through")
