@@ -131,7 +131,9 @@ class Canvas:
         """Frame every node and note (the middle of the sheet when there are none) in each client's view."""
         box = layout.bounds([*self.boxes, *self.notes]) or (-2.0, -2.0, 6.0, 2.0)
         if clients is None:
-            camera.initial(self.server, box)
+            per_px = camera.initial(self.server, box)
+            if not self.server.get_clients():  # details (port names, previews) only if the first view can read them
+                self.texts.zoom(per_px * layout.SCALE)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             camera.frame(client, box)
 
