@@ -14,12 +14,14 @@ REPO = Path(__file__).resolve().parents[2]
 GRAPH = str(REPO / "graphs" / "thesis_3axis.flowmc.json")
 
 
-def _on_a_terminal(args, interrupt_after: float | None = None, timeout: float = 60.0) -> tuple[int, str]:
-    """Run ``flowmc`` on a pseudo-terminal; SIGINT (what Ctrl-C sends) after ``interrupt_after`` s."""
+def _on_a_terminal(args, interrupt_after: float | None = None, timeout: float = 60.0,
+                   once: bytes = b"") -> tuple[int, str]:
+    """Run ``flowmc`` on a pseudo-terminal; SIGINT (what Ctrl-C sends) ``interrupt_after`` s after the
+    output first shows ``once`` (so a loaded machine cannot send it before the job runs)."""
     pid, fd = pty.fork()
     if pid == 0:  # the child: flowmc on the terminal
         os.execv(sys.executable, [sys.executable, "-m", "flowmc", *args])
-    out, t0, sent = b"", time.monotonic(), False
+    out, t0, seen, sent = b"", time.monotonic(), None, False
     while time.monotonic() - t0 < timeout:
         ready, _, _ = select.select([fd], [], [], 0.1)
         if ready:
@@ -30,7 +32,9 @@ def _on_a_terminal(args, interrupt_after: float | None = None, timeout: float = 
             if not data:
                 break
             out += data
-        if interrupt_after is not None and not sent and time.monotonic() - t0 > interrupt_after:
+        if seen is None and once in out:
+            seen = time.monotonic()
+        if interrupt_after is not None and not sent and seen is not None and time.monotonic() - seen > interrupt_after:
             os.kill(pid, signal.SIGINT)
             sent = True
     _, status = os.waitpid(pid, 0)
@@ -38,7 +42,8 @@ def _on_a_terminal(args, interrupt_after: float | None = None, timeout: float = 
 
 
 def test_ctrl_c_is_a_controlled_stop_with_exit_130_saying_where():
-    code, text = _on_a_terminal(["run", GRAPH, "--realtime", "--speed", "2"], interrupt_after=4.0)
+    code, text = _on_a_terminal(["run", GRAPH, "--realtime", "--speed", "2"], interrupt_after=1.0,
+                                once="s left".encode())
     assert code == 130, text
     assert "stopped by Ctrl-C: job card: aborted: stopped by the operator at segment" in text
     assert "outputs left safe" in text and "Traceback" not in text
