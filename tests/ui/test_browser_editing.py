@@ -60,6 +60,15 @@ def drag(ui, a, b, steps=8):
     page.mouse.up()
 
 
+def select_table_and_shift(ui):
+    """Click 'table', shift-click 'shift', as a person selects two nodes."""
+    ui.click_node("table")
+    ui.page.keyboard.down("Shift")
+    ui.click_node("shift")
+    ui.page.keyboard.up("Shift")
+    wait_until(lambda: sorted(ui.editor.state.selected_nodes) == ["shift", "table"], what="two selected")
+
+
 def scene_boxes(ui):
     """Every body's world rectangle as the browser's scene holds it."""
     return ui.page.evaluate("""() => { const o = window.__viserMutable.nodeRefFromName['/canvas/body']; let m = null;
@@ -85,11 +94,7 @@ def test_drag_from_a_port_to_a_port_wires_them(page_on):
 def test_copy_and_paste_a_group_brings_its_inner_wire(page_on, browser):
     editor, ui = page_on()
     page = ui.page
-    ui.click_node("table")
-    page.keyboard.down("Shift")
-    ui.click_node("shift")
-    page.keyboard.up("Shift")
-    wait_until(lambda: sorted(editor.state.selected_nodes) == ["shift", "table"], what="two selected")
+    select_table_and_shift(ui)
     page.keyboard.press("Control+c")
     page.wait_for_timeout(300)
     page.keyboard.press("Control+v")
@@ -266,11 +271,7 @@ def test_the_palette_is_open_on_load_grouped_and_finds_nodes_by_port_type(page_o
 def test_align_the_selection_from_the_side_panel(page_on):
     editor, ui = page_on()
     page = ui.page
-    ui.click_node("table")
-    page.keyboard.down("Shift")
-    ui.click_node("shift")
-    page.keyboard.up("Shift")
-    wait_until(lambda: sorted(editor.state.selected_nodes) == ["shift", "table"], what="two selected")
+    select_table_and_shift(ui)
     editor.state.move_node("shift", (320.0, 90.0))
     ui.field("Align").click()
     page.get_by_role("option", name="top", exact=True).click()
