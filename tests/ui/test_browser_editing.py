@@ -313,19 +313,3 @@ def test_a_failed_node_gets_a_badge_and_its_error_is_in_the_problems_list(page_o
     message = next(iter(editor.session.run_errors().values()))
     page.get_by_role("button", name=re.compile(re.escape(message[:30]))).first.wait_for(timeout=10000)
 
-
-def test_a_notification_over_the_palette_does_not_block_it(page_on):
-    editor, ui = page_on()
-    page = ui.page
-    editor.notify("error", "a long message " * 12)
-    toast = page.locator(".mantine-Notification-root", has_text="a long message")
-    toast.wait_for(timeout=10000)
-    # What a click at the middle of the notification reaches, and what one on its close button reaches.
-    hit = toast.evaluate("""(t) => { const r = t.getBoundingClientRect(), b = t.querySelector('button').getBoundingClientRect();
-      const mid = document.elementFromPoint(r.left + r.width / 2, r.top + r.height / 2);
-      const close = document.elementFromPoint(b.left + b.width / 2, b.top + b.height / 2);
-      return { through: !t.contains(mid), palette: !!(mid && mid.closest('.mantine-Paper-root, .mantine-ScrollArea-root')),
-               closes: t.contains(close) }; }""")
-    assert hit == {"through": True, "palette": True, "closes": True}, hit
-    toast.locator("button").first.click()
-    toast.wait_for(state="detached", timeout=10000)
