@@ -313,12 +313,21 @@ class Editor:
         with self.lock:
             centre = at if at is not None else self.canvas.view_centre()
             node_id = self.state.add_node(type_id, centre, params)
-            box = self.canvas.by_id.get(node_id)
-            size = (box.w / layout.SCALE, box.h / layout.SCALE) if box is not None else (200.0, 120.0)
-            taken = [r for k, r in self.actions.rects().items() if k != node_id]
-            self.state.move_nodes({node_id: arrange.free_spot(taken, size, centre)}, record=False)
+            self.place_free(node_id, centre)
             self.state.select(nodes=[node_id])
             return node_id
+
+    def place_free(self, node_id: str, near: tuple[float, float] | None = None) -> None:
+        """Move a node (in the current undo step) to the free spot nearest ``near`` (canvas pixels; default
+        its own centre), where it overlaps no node, terminal or note."""
+        with self.lock:
+            box = self.canvas.by_id.get(node_id)
+            size = (box.w / layout.SCALE, box.h / layout.SCALE) if box is not None else (200.0, 120.0)
+            if near is None:
+                pos = self.state.node(node_id).pos
+                near = (pos[0] + size[0] / 2, pos[1] + size[1] / 2)
+            taken = [r for k, r in self.actions.rects().items() if k != node_id]
+            self.state.move_nodes({node_id: arrange.free_spot(taken, size, near)}, record=False)
 
     def confirm(self, title: str, text: str, button: str, action: Callable[[], object], client: Any = None) -> Any:
         """A dialog with ``button`` (does ``action`` under the lock) and "Keep editing"; returns the modal."""

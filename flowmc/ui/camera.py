@@ -69,15 +69,17 @@ def screen_rect_to_world(cam: viser.CameraHandle, screen_min: tuple[float, float
 
 
 def initial(server: viser.ViserServer, box: tuple[float, float, float, float], size: tuple[int, int] = (1240, 1000),
-            margin: float = 0.4) -> None:
+            margin: float = 0.4) -> float:
     """Where a page that connects next starts: looking straight down on ``box`` (for a view of ``size``
-    pixels, refitted once the page knows its own), so it never shows a turned camera first."""
+    pixels, refitted once the page knows its own), so it never shows a turned camera first. Returns
+    the screen pixels per world unit of that view."""
     w, h = box[2] - box[0] + 2 * margin, box[3] - box[1] + 2 * margin
     dist = max(max(w / size[0], h / size[1]) * size[1] / (2 * math.tan(FOV / 2)), 2.0)
     cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
     cam = server.initial_camera
     cam.fov, cam.up = FOV, (0.0, 1.0, 0.0)
     cam.position, cam.look_at = (cx, cy, dist), (cx, cy, 0.0)
+    return size[1] / (2 * dist * math.tan(FOV / 2))
 
 
 def screen_px_per_world(cam: viser.CameraHandle) -> float | None:

@@ -132,7 +132,9 @@ class Canvas:
         """Frame every node and note (the middle of the sheet when there are none) in each client's view."""
         box = layout.bounds([*self.boxes, *self.notes]) or (-2.0, -2.0, 6.0, 2.0)
         if clients is None:
-            camera.initial(self.server, box)
+            per_px = camera.initial(self.server, box)
+            if not self.server.get_clients():  # details (port names, previews) only if the first view can read them
+                self.texts.zoom(per_px * layout.SCALE)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             camera.frame(client, box)
 
@@ -342,7 +344,7 @@ class Canvas:
                 out[f"{key}/row/{k}"] = (line, (box.x + layout.PAD * s, top - (k + 0.5) * layout.PREVIEW_H * s),
                                          layout.PREVIEW_FONT * s, "center-left", True)
             problems = self.problems.get(box.node_id, [])
-            if problems:
+            if draw.has_badge(box.node_id, self.status, self.problems):
                 out[f"{key}/badge"] = (str(len(problems)) if len(problems) > 1 else "!",
                                        (box.x + box.w - 0.14, box.y - layout.TITLE_H * s / 2), 11 * s, "center-center", False)
             status = draw.status_text(self.status.get(box.node_id), problems)

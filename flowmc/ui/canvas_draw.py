@@ -96,18 +96,20 @@ def _quads(rects: list[tuple[float, float, float, float]], z: float, colors: lis
 
 def node_quads(boxes: list[NodeBox], status: dict[str, Any], selected: set[str], problems: dict[str, list[str]],
                theme: Theme = LIGHT) -> dict[str, Quads]:
-    """Frames (selection/problem colour), bodies (run status colour), title bars and problem badges."""
+    """Frames (selection/problem colour), bodies (run status colour), title bars and problem badges (a node
+    with problems, or whose last run failed, gets one; the text is in the Problems list)."""
     frames, frame_colors, bodies, body_colors, bars, bar_colors, badges = [], [], [], [], [], [], []
     for b in boxes:
         chosen = b.node_id in selected
         m = 0.05 if chosen else 0.02
         frames.append((b.x - m, b.y + m, b.w + 2 * m, b.h + 2 * m))
-        frame_colors.append(theme.selected if chosen else theme.problem if problems.get(b.node_id) else theme.frame)
+        flagged = has_badge(b.node_id, status, problems)
+        frame_colors.append(theme.selected if chosen else theme.problem if flagged else theme.frame)
         bodies.append((b.x, b.y, b.w, b.h))
         body_colors.append(theme.status.get((status.get(b.node_id) or (None,))[0], theme.status[None]))
         bars.append((b.x, b.y, b.w, TITLE_H * SCALE))
         bar_colors.append(theme.terminal if b.terminal else theme.title_bar)
-        if problems.get(b.node_id):
+        if flagged:
             s = 0.18
             badges.append((b.x + b.w - s - 0.05, b.y - (TITLE_H * SCALE - s) / 2, s, s))
     return {
@@ -227,6 +229,11 @@ def rows_preview(name: str, rows: Any, tag: str | None, limit: int = 3) -> list[
     if len(rows) > limit:
         lines.append(f"… {len(rows) - limit} more {name}")
     return lines
+
+
+def has_badge(node_id: str, status: dict[str, Any], problems: dict[str, list[str]]) -> bool:
+    """A node shows the problem badge when it has problems or its last run failed."""
+    return bool(problems.get(node_id)) or (status.get(node_id) or (None,))[0] == "failed"
 
 
 def status_text(entry: tuple[str, float | None, str | None] | None, problems: list[str]) -> str:

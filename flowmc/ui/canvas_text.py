@@ -2,8 +2,9 @@
 run status) only when the view is close enough to read them.
 
 Labels live under two scene frames, ``/canvas/titles`` and ``/canvas/detail``. Zoomed out, the
-detail frame is hidden (one message), and detail labels of nodes drawn while it is hidden are not
-even made until the view comes close again: opening a 120-node graph at Fit sends titles only.
+detail frame is hidden and its labels are dropped; they are made again when the view comes close
+again. The editor decides before its first page connects, from the first framing: opening a
+120-node graph at Fit sends titles only.
 A label is resent only when its text changed; a move is a position update.
 """
 
@@ -64,6 +65,10 @@ class Texts:
         self._frames[True].visible = on
         if on:
             self.show(self.wanted)
+        else:  # dropped, not just hidden: a page that opens now is not sent hundreds of labels it does not show
+            for key, (*_rest, detail) in self.wanted.items():
+                if detail and key in self.handles:
+                    self.handles.pop(key)[0].remove()
         return True
 
     def zoom(self, screen_px_per_canvas_px: float) -> bool:

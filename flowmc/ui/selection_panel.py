@@ -145,6 +145,7 @@ class SelectionPanel:
             except FlowmcError as exc:
                 host.notify("error", str(exc))
                 return None
+            host.place_free(new_id)  # where the replaced nodes were, unless it would cover a neighbour
             file = state.node(new_id).params["file"]
         host.files_changed()
         host.notify("info", f"made {file}; {new_id} runs it")

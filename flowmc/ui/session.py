@@ -71,6 +71,9 @@ class PanelHost(Protocol):
     def add_node(self, type_id: str, params: dict[str, Any], at: tuple[float, float] | None = None) -> str:
         """Add a node at a free spot (near ``at``, canvas pixels, else the middle of the view); its id."""
 
+    def place_free(self, node_id: str, near: tuple[float, float] | None = None) -> None:
+        """Move a node to the nearest spot where it overlaps nothing (near ``near``, else where it is)."""
+
     def export_gcode(self, client: Any = None) -> Any: ...
 
     def download(self, name: str, text: str, client: Any = None) -> None:

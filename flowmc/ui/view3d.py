@@ -43,7 +43,7 @@ _JOB_TOOL_RGB = (225, 0, 225)  # the running job's tool (live): magenta, a colou
 _LOG_RGB = (120, 60, 160)
 
 
-def embed_html(view: "ToolpathView", height: str = "calc(100vh - 110px)") -> str:
+def embed_html(view: "ToolpathView", height: str = "calc(100vh - 128px)") -> str:
     """The ``<iframe>`` the editor puts in a docked panel. The page script (``viser_internals``) sets its
     address from ``data-flowmc-port`` and ``data-flowmc-token``: this machine under its other name, so
     the frame is cross-site."""
@@ -52,6 +52,7 @@ def embed_html(view: "ToolpathView", height: str = "calc(100vh - 110px)") -> str
     style = html.escape(f"width:100%;height:{height};border:0;display:block", quote=True)
     return (f'<iframe data-flowmc-port="{int(view.server.get_port())}" data-flowmc-token="{token}" '
             f'title="flowmc 3D view" style="{style}"></iframe>'
+            f'<div style="font-size:12px;opacity:.75">Playback and plots: click the bar at the bottom of the view.</div>'
             f'<a href="{href}" target="_blank" rel="noopener">Open the 3D view in its own tab</a>')
 
 
@@ -79,6 +80,7 @@ class ToolpathView:
         # Docked beside the editor the view is narrow: medium-width controls that fold away (the ">>" button).
         self.server.gui.configure_theme(show_share_button=False, control_width="medium")
         self.server.gui.main_panel.dock_right()  # beside the scene, not over it
+        self.server.on_client_connect(viser_internals.fold_narrow_controls)  # docked narrow: the scene first
         self.server.scene.set_up_direction("+z")
         self.nodes: dict[str, Any] = {}
         self.plots: dict[str, Any] = {}

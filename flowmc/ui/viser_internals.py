@@ -16,7 +16,8 @@ The page script (``install_page``) defines ``window.flowmc``: ``send(kind, data)
 the server as a value of one text field, the page channel (viser's own ``GuiUpdateMessage`` for
 that field, so the guard below checks it like any control; the script hides its row; a counter
 makes every message new), and ``download(name, text)``. It moves viser's notifications to the
-bottom left corner of the canvas, and points ``iframe[data-flowmc-port]`` at
+top of the right-hand column, over the palette (``NOTIFICATION_CSS``), where they cover no part of the
+canvas, and points ``iframe[data-flowmc-port]`` at
 the other name of this machine (``127.0.0.1`` <-> ``localhost``) with the frame's token in its
 address and in viser's ``websocket`` parameter (a cross-site frame gets no cookie): the browser
 runs a cross-site frame in its own process, so the 3D view's work never stalls the editor's canvas.
@@ -49,7 +50,8 @@ from viser import _messages
 
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
-__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "install_page", "download", "run_js", "set_tips",
+__all__ = ["guarded_server", "lock_flat_camera", "fold_narrow_controls", "set_page_title", "install_page", "download",
+           "run_js", "set_tips",
            "MAX_UPLOAD_BYTES", "CHANNEL_LABEL"]
 
 MAX_UPLOAD_BYTES = 32 * 1024 * 1024  # a graph file is far smaller; G-code files are not uploaded
@@ -57,6 +59,14 @@ MAX_TEXT_VALUE = 1_000_000  # characters a text field may be set to
 _SECURITY_HEADERS = {"Referrer-Policy": "no-referrer", "X-Content-Type-Options": "nosniff", "Cache-Control": "no-store"}
 _build_lock = threading.Lock()
 CHANNEL_LABEL = "flowmc page events"  # the text field the page script sends through (hidden)
+
+# Notifications sit at the top of the right-hand column (the palette's place, as wide as the column), not
+# over the canvas: a refusal never hides the ports it is about. They expire (``Editor.notify``), and
+# clicks go through them to the palette below, except on their close buttons.
+NOTIFICATION_CSS = (".mantine-Notifications-root { top: 44px !important; bottom: auto !important; left: auto !important; "
+                    "right: 14px !important; width: 296px !important; max-width: 296px !important; transform: none !important; "
+                    "pointer-events: none !important; } .mantine-Notifications-root * { pointer-events: none !important; } "
+                    ".mantine-Notifications-root button { pointer-events: auto !important; }")
 
 _PAGE_JS = """
 (function flowmcPage(channel) {
@@ -79,8 +89,7 @@ _PAGE_JS = """
     setTimeout(() => URL.revokeObjectURL(url), 60000);
   };
   const style = document.createElement("style");
-  style.textContent = `.mantine-Notifications-root { top: auto !important; bottom: 12px !important;
-      left: 12px !important; width: 300px !important; }`;
+  style.textContent = `NOTIFICATION_CSS`;
   document.head.appendChild(style);
   const otherHost = () => {
     const h = location.hostname;
@@ -241,6 +250,30 @@ def set_page_title(client: Any, title: str) -> None:
     _send(client, f"document.title = {json.dumps(title)};")
 
 
+# viser lays its controls out as a sheet over the lower part of the scene when the page is narrow (the
+# 3D view docked beside the editor is): fold it to its title bar once, so the toolpath is seen whole;
+# a click on the bar ("Connected", viser's status line) opens it again.
+_FOLD_NARROW_JS = """
+(function flowmcFold() {
+  if (window.__flowmcFolded) return;
+  let tries = 0;
+  const go = () => {
+    if (window.innerWidth >= 700) return;
+    const bar = [...document.querySelectorAll("div")].find(d => d.childElementCount === 0
+      && d.textContent.trim() === "Connected" && d.getBoundingClientRect().height > 0);
+    if (bar) { window.__flowmcFolded = true; bar.click(); return; }
+    if (++tries < 150) setTimeout(go, 100);
+  };
+  go();
+})();
+"""
+
+
+def fold_narrow_controls(client: Any) -> None:
+    """In a narrow page (under 700 px), fold viser's control sheet so that the scene shows whole."""
+    _send(client, _FOLD_NARROW_JS)
+
+
 def run_js(client: Any, source: str) -> None:
     """Run ``source`` in ``client``'s page."""
     _send(client, source)
@@ -249,7 +282,8 @@ def run_js(client: Any, source: str) -> None:
 def install_page(client: Any, channel: Any) -> None:
     """``window.flowmc`` in ``client``'s page; its events arrive as updates of the text field ``channel``
     (labelled ``CHANNEL_LABEL``, which the script hides)."""
-    source = _PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
+    source = (_PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
+              .replace("NOTIFICATION_CSS", NOTIFICATION_CSS))
     _send(client, source)
 
 

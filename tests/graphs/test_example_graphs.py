@@ -47,6 +47,13 @@ def test_readme_lists_every_example_graph():
         assert f"graphs/{path.name}" in readme
 
 
+def test_every_example_has_its_editor_screenshot_in_the_readme():
+    readme = (REPO / "README.md").read_text()
+    for path in EXAMPLES:
+        shot = f"docs/screenshots/{path.name.removesuffix('.flowmc.json')}.png"
+        assert (REPO / shot).is_file() and f'src="{shot}"' in readme, shot
+
+
 def test_thesis_pattern_lengths_spindle_and_homing():
     result = run("thesis_3axis")
     rows = result.outputs["segment_lengths"].to_rows()

@@ -83,6 +83,13 @@ class EditorPage:
         """Wait until the scene holds ``count`` node bodies (nodes and interface terminals)."""
         self.page.wait_for_function(f"({_INSTANCES})('/canvas/body') === {count}", timeout=timeout * 1000)
 
+    def wait_ports(self, timeout: float = 30.0) -> None:
+        """Wait until the scene's port squares are those of the editor's current boxes (they follow the bodies,
+        so a drag that starts at a new port right after ``wait_nodes`` could still meet the old ones)."""
+        count = sum(len(b.inputs) + len(b.outputs) for b in self.editor.canvas.boxes)
+        self.page.wait_for_function(f"({_INSTANCES})('/canvas/ports') === {count}", timeout=timeout * 1000)
+        self.settled()
+
     def dismiss_toasts(self) -> None:
         """Close the 'Software WebGL' notice (it covers the top left of the canvas), then wait for the page to settle."""
         for frame in self.page.frames:

@@ -6,13 +6,14 @@ on the canvas, and the first view framing the whole graph every time."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
 
-from browser_helpers import EditorPage, chromium, wait_until
+from browser_helpers import EditorPage, chromium, expected, wait_until
 from editor_graphs import chain_file, example_file
-from flowmc.ui import arrange, layout
+from flowmc.ui import arrange, canvas_draw, layout
 from flowmc.ui.app import Editor
 from flowmc.ui.examples import examples_dir
 
@@ -59,6 +60,15 @@ def drag(ui, a, b, steps=8):
     page.mouse.up()
 
 
+def select_table_and_shift(ui):
+    """Click 'table', shift-click 'shift', as a person selects two nodes."""
+    ui.click_node("table")
+    ui.page.keyboard.down("Shift")
+    ui.click_node("shift")
+    ui.page.keyboard.up("Shift")
+    wait_until(lambda: sorted(ui.editor.state.selected_nodes) == ["shift", "table"], what="two selected")
+
+
 def scene_boxes(ui):
     """Every body's world rectangle as the browser's scene holds it."""
     return ui.page.evaluate("""() => { const o = window.__viserMutable.nodeRefFromName['/canvas/body']; let m = null;
@@ -84,11 +94,7 @@ def test_drag_from_a_port_to_a_port_wires_them(page_on):
 def test_copy_and_paste_a_group_brings_its_inner_wire(page_on, browser):
     editor, ui = page_on()
     page = ui.page
-    ui.click_node("table")
-    page.keyboard.down("Shift")
-    ui.click_node("shift")
-    page.keyboard.up("Shift")
-    wait_until(lambda: sorted(editor.state.selected_nodes) == ["shift", "table"], what="two selected")
+    select_table_and_shift(ui)
     page.keyboard.press("Control+c")
     page.wait_for_timeout(300)
     page.keyboard.press("Control+v")
@@ -185,7 +191,7 @@ def test_an_added_interface_input_is_drawn_as_a_terminal(page_on):
     wait_until(lambda: any(i.name == "offset" for i in editor.state.graph.interface.inputs), what="the input")
     wait_until(lambda: any(b.node_id == "@in:offset" for b in editor.canvas.boxes), what="its terminal laid out")
     ui.wait_nodes(len(editor.canvas.boxes))  # and drawn in the page before it is dragged from
-    ui.settled()
+    ui.wait_ports()
     term = ui.box("@in:offset")
     assert term.x < min(b.x for b in editor.canvas.boxes if not b.node_id.startswith("@"))  # left of the nodes
     spot, dx = term.outputs[0], ui.box("shift").port("in", "dx")
@@ -225,3 +231,86 @@ def test_the_first_view_frames_the_whole_graph_every_time(browser, tmp_path):
             ui.page.close()
     finally:
         editor.close()
+
+
+def test_notifications_stay_off_the_canvas_never_pile_up_and_expire(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    ui.wire("table.path", "shift.dx")  # refused: a Path cannot feed a Number
+    toasts = page.locator(".mantine-Notification-root", has_text="cannot wire")
+    toasts.first.wait_for(timeout=10000)
+    canvas = page.evaluate("(() => { const r = window.__viserMutable.canvas.getBoundingClientRect(); "
+                           "return [r.left, r.top, r.right, r.bottom]; })()")
+    box = toasts.first.bounding_box()
+    assert box["x"] >= canvas[2] - 1, (box, canvas)  # beside the canvas, over the right-hand column
+    for k in range(6):  # a burst of messages: the oldest go
+        editor.notify("info", f"message {k}")
+    page.locator(".mantine-Notification-root", has_text="message 5").wait_for(timeout=10000)
+    page.wait_for_timeout(500)
+    assert page.locator(".mantine-Notification-root", has_text=re.compile("message|cannot wire")).count() <= 3
+    wait_until(lambda: page.locator(".mantine-Notification-root", has_text="message").count() == 0, 15,
+               "the messages to expire")
+
+
+def test_the_palette_is_open_on_load_grouped_and_finds_nodes_by_port_type(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    assert page.get_by_role("tab", name="Nodes").get_attribute("aria-selected") == "true"
+    everything = len(editor.palette.items)
+    page.get_by_text(f"{everything} entries", exact=True).wait_for(timeout=10000)
+    for category in {i.category for i in editor.palette.items}:
+        page.get_by_text(category, exact=True).first.wait_for(state="attached", timeout=10000)
+    ui.field("Search").fill("Trajectory")
+    ui.field("Search").press("Tab")
+    wait_until(lambda: editor.palette.search.value == "Trajectory", what="the search")
+    found = page.get_by_text(re.compile(r"^\d+ of \d+ entries match$"))
+    found.wait_for(timeout=10000)
+    assert int(found.inner_text().split()[0]) >= 8  # every node that takes or gives a Trajectory
+    page.get_by_role("button", name="Look-ahead planner", exact=True).wait_for(timeout=10000)
+
+
+def test_align_the_selection_from_the_side_panel(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    select_table_and_shift(ui)
+    editor.state.move_node("shift", (320.0, 90.0))
+    ui.field("Align").click()
+    page.get_by_role("option", name="top", exact=True).click()
+    wait_until(lambda: editor.state.node("shift").pos[1] == editor.state.node("table").pos[1], what="the alignment")
+
+
+def test_one_click_downloads_the_graph(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    page.get_by_role("tab", name="Files").click()
+    with page.expect_download(timeout=15000) as got:
+        page.get_by_role("button", name="Download the graph", exact=True).click()
+    saved = json.loads(open(got.value.path()).read())
+    assert got.value.suggested_filename == "example.flowmc.json"
+    assert {n["id"] for n in saved["nodes"]} == {n.id for n in editor.state.graph.nodes}
+
+
+def test_the_dark_theme_darkens_the_page_and_the_canvas(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    page.get_by_role("tab", name="Files").click()
+    page.get_by_text("Dark theme", exact=True).click()
+    page.wait_for_function("document.documentElement.dataset.mantineColorScheme === 'dark'", timeout=10000)
+    dark = expected(canvas_draw.DARK.status[None])
+    wait_until(lambda: np.allclose(ui.body_colors()[0], dark, atol=0.02), what="dark node bodies")
+
+
+def test_a_failed_node_gets_a_badge_and_its_error_is_in_the_problems_list(page_on):
+    editor, ui = page_on()
+    page = ui.page
+    badges = "(() => { const o = window.__viserMutable.nodeRefFromName['/canvas/badge']; let m = null; if (!o) return 0;" \
+             " o.traverse(c => { if (c.isInstancedMesh && !m) m = c; }); return m ? m.instancesCount : 0; })()"
+    editor.state.set_param("table", "rows", [{"type": "arc", "direction": "ccw", "radius": 5.0, "start_angle": 0.0,
+                                              "end_angle": 0.0}])  # valid fields, but the arc sweeps nothing
+    page.get_by_role("button", name="Run", exact=True).click()
+    wait_until(lambda: editor.session.run_errors(), 30, "the failed run")
+    page.wait_for_function(f"{badges} >= 1", timeout=15000)
+    page.get_by_role("tab", name="Problems").click()
+    message = next(iter(editor.session.run_errors().values()))
+    page.get_by_role("button", name=re.compile(re.escape(message[:30]))).first.wait_for(timeout=10000)
+

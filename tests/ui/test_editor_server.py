@@ -231,6 +231,18 @@ def test_make_subgraph_open_it_and_come_back(editor, tmp_path):
     assert run(editor).ok
 
 
+def test_a_new_sub_graph_node_takes_a_free_spot_not_the_middle_of_what_it_replaced(editor):
+    from flowmc.ui import arrange
+
+    editor.state.select(nodes=["table", "both"])  # their middle is where 'shift' is
+    editor.selection.sub_name.value = "ends"
+    editor.selection.make_button.value = True
+    new = editor.state.selected_nodes[0]
+    rects = editor.actions.rects([b.node_id for b in editor.canvas.boxes])
+    assert new in rects and arrange.overlaps(rects) == []
+    assert editor.state.undo() and {n.id for n in editor.state.graph.nodes} >= {"table", "both"}  # one undo step
+
+
 def test_drag_moves_nodes_and_records_one_undo_step(editor):
     import asyncio
     from types import SimpleNamespace

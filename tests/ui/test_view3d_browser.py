@@ -62,3 +62,25 @@ def test_browser_renders_the_trajectory(tmp_path):
     scene = img[:, : img.shape[1] // 2]  # the control panel is docked on the right
     assert scene.std() > 5.0, "the scene is blank"
     assert _reddish(scene).sum() > 200, "no pixels in the trajectory's top-speed colour"
+
+
+def test_a_narrow_view_folds_its_controls_so_the_scene_shows_whole():
+    """Docked beside the editor the view is about 460 px wide: viser then lays its controls over the lower
+    scene; they start folded to their bar, and a click on the bar opens them."""
+    view = ToolpathView()
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
+            try:
+                page = browser.new_page(viewport={"width": 460, "height": 890})
+                page.goto(view.url, timeout=30_000)
+                page.wait_for_function("window.__flowmcFolded === true", timeout=30_000)
+                playback = page.get_by_text("Playback", exact=True).first
+                page.wait_for_timeout(1500)  # the fold's animation
+                assert not playback.is_visible()
+                page.get_by_text("Connected", exact=True).first.click()
+                playback.wait_for(state="visible", timeout=10_000)
+            finally:
+                browser.close()
+    finally:
+        view.close()
