@@ -8,8 +8,9 @@ limits, and a trapezoid or S-curve profile joins consecutive junctions. The rule
   change at a corner within one period stays within w*a.
 - ``junction_deviation`` (GRBL): v^2 <= a*delta*cos(alpha/2) / (1 - cos(alpha/2)), the speed of a
   circle of deviation delta tangent to both moves; the sampled path still turns sharply.
-- ``blend``: corners between lines are rounded by tangent arcs within the tolerance (G64 P style);
-  the path is then tangent-continuous and its arcs are planned like any arc.
+- ``blend``: handed to flowmc.motion.planner: corners and runs of short segments smoothed within the
+  tolerance (G64 P Q style, across many segments), then the fastest per-axis time law; jerk-limited
+  per axis with ``profile="scurve"``.
 
 At a rule corner passed at speed the profile holds its speed for two periods on each side, so the
 sampled acceleration there is the pure direction change the rule bounds (the paper's "first period
@@ -31,6 +32,7 @@ from flowmc.errors import PlanningError
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.limits import PathLimits
+from flowmc.motion.planner import SmoothPlan, plan_smooth
 from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid
 from flowmc.motion.signals import path_signals, segment_start_times
@@ -472,8 +474,12 @@ def _sample(pieces: Pieces, runs: _Runs, phases: _Phases, path: Path, machine: M
 # ---------------------------------------------------------------- planners
 
 def plan_lookahead(path: Path, machine: Machine, rule: Literal["arm_weighted", "junction_deviation", "blend"] = "blend",
-                   tolerance: float = 0.05, profile: Literal["trapezoid", "scurve"] = "trapezoid") -> Plan:
+                   tolerance: float = 0.05, profile: Literal["trapezoid", "scurve"] = "trapezoid") -> Plan | SmoothPlan:
     """Plan the whole program with look-ahead.
+
+    ``blend`` (the default) smooths corners and runs of short segments within the tolerance and plans the
+    fastest per-axis time law along the result (flowmc.motion.planner: a SmoothPlan). The paper's rules
+    plan segment by segment with junction speeds, as below (a Plan).
 
     ``tolerance`` (mm) is the corner tolerance for ``blend`` and GRBL's junction deviation for
     ``junction_deviation``; ``arm_weighted`` needs none. Raises PlanningError for unknown options
@@ -486,6 +492,8 @@ def plan_lookahead(path: Path, machine: Machine, rule: Literal["arm_weighted", "
                             where="planner")
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
+    if rule == "blend":
+        return plan_smooth(path, machine, tolerance=tolerance, profile=profile)
     lim = PathLimits.of(machine)
     cols, amax = list(lim.cols), lim.amax
     pieces = build_pieces(path, machine, blend_tol=tolerance if rule == "blend" else None)

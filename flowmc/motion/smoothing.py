@@ -11,8 +11,9 @@ across many segments. Here the smoothing works on *runs*, not corners:
 2. Zones that overlap (a segment shorter than the two zones at its ends) merge into one run, so a
    run spans as many short segments as it needs, across corners and arcs alike.
 3. A lone corner between two lines, when tangent continuity is enough (trapezoid profiles), is
-   rounded by the tangent arc: time-optimal for one corner and exact (Ellenberg's tangent-arc
-   blends in LinuxCNC 2.7+, and the README's bound use the same shape). Every other run is replaced
+   rounded by the per-axis time-optimal blend, a parabola (``_corner_parabolas``): with every axis
+   held to its own acceleration limit it passes a right angle about 1.5 times as fast as the
+   tangent arc within the same tolerance (LinuxCNC 2.7+ blends by tangent arcs, Ellenberg). Every other run is replaced
    by a cubic B-spline fitted to the programmed path over the run, with the position, tangent and
    curvature of the path at both ends of the run fixed, so the result is curvature-continuous (G2)
    where it joins the rest of the path and inside.
@@ -41,7 +42,7 @@ planner stops at its corners (reported in ``Smoothed.failed``; none of the bench
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy import sparse
@@ -67,8 +68,9 @@ _MIN_SPANS = 10  # a run, however short, has room to turn: six of its control po
 _KNOT_TOL = 2.0  # knot spacing, in tolerances
 _REFINE_KNOTS = 1  # times a run that misses the tolerance is fitted again with knots twice as dense
 _PARAM_PASSES = 3  # refits with the data re-parameterised by arc length along the fitted curve
-_ORDER = 2  # the penalty's difference order: 2 ~ bending energy, the integral of |p''|^2
-_STENCIL = (1.0, -2.0, 1.0)
+#: The penalty's difference stencils: second differences ~ the integral of |p''|^2 (bending; for
+#: acceleration limits), third ~ of |p'''|^2 (the rate of change of curvature; for jerk limits).
+_STENCILS = {2: np.array([1.0, -2.0, 1.0]), 3: np.array([1.0, -3.0, 3.0, -1.0])}
 _ELL = 100.0  # longest smoothing length in knot spans
 _ELL_SEGMENTS = 1.5  # initial smoothing length in programmed segment lengths
 _ELL_TOL = 20.0  # and at least this many tolerances: details below the tolerance are smoothed away
@@ -290,8 +292,9 @@ class _RunFitter:
     the tolerance of it at that t.
     """
 
-    def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: float):
+    def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: float, order: int = 2):
         self.raw, self.ua, self.ub, self.tol = raw, ua, ub, tol
+        self.order, self.stencil = order, _STENCILS[order]
         self.free_a, self.free_b = free_a, free_b
         n_runs = len(ua)
         length = ub - ua
@@ -351,16 +354,16 @@ class _RunFitter:
         self.fixed, self.c_fixed = fixed, c_fixed
         # second-difference penalty rows: sum |D2 c|^2 ~ h^3 * integral |p''|^2, so mu = l^4 / (delta h^3)
         # makes the objective (1/delta) (integral r^2 + l^4 integral |p''|^2)
-        self.diff_start = np.concatenate([offset[r] + np.arange(ncp[r] - _ORDER) for r in range(n_runs)])
-        self.diff_run = np.repeat(np.arange(n_runs), ncp - _ORDER)
+        self.diff_start = np.concatenate([offset[r] + np.arange(ncp[r] - self.order) for r in range(n_runs)])
+        self.diff_run = np.repeat(np.arange(n_runs), ncp - self.order)
         self.span_of = np.clip(np.floor((t - ua[run_of]) / hr[run_of]).astype(int), 0, spans[run_of] - 1) + offset[run_of]
         per_cp = np.bincount(self.span_of, weights=np.minimum(self.seg_len, _ELL * hr[run_of]), minlength=total)
         per_cp /= np.maximum(np.bincount(self.span_of, minlength=total), 1)
         per_cp = uniform_filter1d(per_cp, size=41)
         hd = hr[self.diff_run]
         ell = np.clip(np.maximum(_ELL_SEGMENTS * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
-        self.mu = ell**(2 * _ORDER) / (0.25 * hd * hd**(2 * _ORDER - 1))
-        self.floor = (hd / ell) ** (2 * _ORDER)
+        self.mu = ell**(2 * self.order) / (0.25 * hd * hd**(2 * self.order - 1))
+        self.floor = (hd / ell) ** (2 * self.order)
         reach = np.ceil(_REACH * ell / hd).astype(int)
         first_cp, last_cp = offset[self.diff_run], offset[self.diff_run] + ncp[self.diff_run] - 1
         self.reach_lo = np.maximum(self.diff_start + 1 - reach, first_cp)
@@ -373,16 +376,16 @@ class _RunFitter:
 
     def _solve(self) -> np.ndarray:
         """The banded normal equations (upper form for solveh_banded), assembled directly: the data part's
-        four diagonals plus each penalty row's w * (1, -2, 1)^T (1, -2, 1) on its three control points."""
+        four diagonals plus each penalty row's w * d^T d, d its difference stencil on its control points."""
         total, fixed = self.total, self.fixed
         w = self.mu * self.scale
         c = self.diff_start
         diag = [d.copy() for d in self.data_diag]
-        for j, coeff in enumerate((1.0, 4.0, 1.0)):
-            diag[0] += np.bincount(c + j, weights=coeff * w, minlength=total)
-        diag[1] += np.bincount(c, weights=-2.0 * w, minlength=total)[:total - 1]
-        diag[1] += np.bincount(c + 1, weights=-2.0 * w, minlength=total)[:total - 1]
-        diag[2] += np.bincount(c, weights=w, minlength=total)[:total - 2]
+        stencil = self.stencil
+        for p_ in range(len(stencil)):
+            for q_ in range(p_, len(stencil)):
+                diag[q_ - p_] += np.bincount(c + p_, weights=stencil[p_] * stencil[q_] * w,
+                                             minlength=total)[:total - (q_ - p_)]
         # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
         x = self.c_fixed * fixed[:, None]
         rhs = self.rhs_data - diag[0][:, None] * x
@@ -489,6 +492,34 @@ def _run_polys(fit: _Fit, r: int, ncp: int) -> tuple[np.ndarray, np.ndarray, np.
     return x, fit.knot_pu[r], coef
 
 
+# ---------------------------------------------------------------- corners between two lines
+
+def _corner_parabolas(corner, u_in, u_out, room, v_full, tol: float, limits: PathLimits):
+    """Round lone line-line corners by the per-axis time-optimal blend: a parabola.
+
+    Through a corner at speed v, the velocity must change by v (u_out - u_in); with each axis held to
+    its own amax, the fastest way is one constant acceleration vector, each axis at most at its limit,
+    for tau = v max_i |u_out_i - u_in_i| / amax_i: the path is then a parabola from v tau / 2 before the
+    corner to v tau / 2 after it (LinuxCNC's old parabolic blend, here sized per axis and by the
+    tolerance). Its point nearest the corner is v tau sin(alpha/2) / 4 from it, and no point of either
+    is further from the other, so the trim d = v tau / 2 may grow to 2 tol / sin(alpha/2); no larger
+    than what passing at full speed needs (v_full^2 m / 2, m = max_i |u_out_i - u_in_i| / amax_i), nor
+    than ``room``. For a right angle between two axes it passes about 1.5 times as fast as the tangent
+    arc within the same tolerance. Returns the trims and each parabola's coefficients (n, 4, 3) in
+    the curve parameter x in [0, 2d]: p = start + u_in x + (u_out - u_in) x^2 / (4 d).
+    """
+    du = u_out - u_in
+    half_sin = 0.5 * np.linalg.norm(du, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m = np.max(np.where(np.abs(du) > 0, np.abs(du) / limits.amax, 0.0), axis=1)
+        d = np.minimum(np.minimum(2.0 * tol / np.maximum(half_sin, 1e-300), 0.5 * v_full**2 * m), room)
+    coef = np.zeros((len(d), 4, 3))
+    coef[:, 0] = corner - u_in * d[:, None]
+    coef[:, 1] = u_in
+    coef[:, 2] = du / (4.0 * d[:, None])
+    return d, coef
+
+
 # ---------------------------------------------------------------- assembling the curve
 
 def _shift_poly(coef: np.ndarray, du: np.ndarray) -> np.ndarray:
@@ -560,7 +591,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
                              for i in range(a + 1, b + 1)) for a, b in zip(el.seg[:-1], el.seg[1:])], dtype=bool)
     alpha = corner_angle(el.t1[:-1], el.t0[1:]) if nj > 0 else np.zeros(0)
     dkappa = np.linalg.norm(el.k0[1:] - el.k1[:-1], axis=1) if nj > 0 else np.zeros(0)
-    stop = gap_stop | (alpha >= REVERSAL) | ~adjacent & False
+    stop = gap_stop | (alpha >= REVERSAL)
     a_min = float(np.min(limits.amax[list(limits.cols)]))
     if g2:
         j_min = float(np.min(limits.jmax[list(limits.cols)]))
@@ -571,27 +602,30 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     r_cap = v_big**2 / (0.1 * a_min)
     want_arc, want = _zone_wants(alpha, dkappa, tol_fit, r_cap, g2)
     runs = _find_runs(el, need, want, alpha, stop, g2)
+    stop_extra = []
+    if g2:
+        # a lone sharp corner is cheaper to stop at than to pass on a curvature-continuous curve within the
+        # tolerance (whose curvature must rise and fall within a fraction of a millimetre: the jerk limit
+        # holds the speed there near zero anyway), so the jerk-limited profile stops there
+        lone = ((runs.first == runs.last) & (alpha[runs.first] >= _SHARP) & (runs.ua >= el.u0[runs.first])
+                & (runs.ub <= el.u1[runs.first + 1]))
+        stop_extra.append(el.u1[runs.first[lone]])
+        runs = _Runs(*(getattr(runs, f.name)[~lone] for f in fields(_Runs)))
 
     b = CurveBuilder()
     blends = np.flatnonzero(runs.arc)
-    # tangent arcs: radius from the trims actually available (the zone may have been shortened)
     if len(blends):
         j = runs.first[blends]
-        d = np.minimum(want_arc[j], np.minimum(el.u1[j] - runs.ua[blends], runs.ub[blends] - el.u0[j + 1]))
-        half = 0.5 * alpha[j]
-        radius = d / np.tan(half)
-        u_in, u_out = el.t1[j], el.t0[j + 1]
-        normal = u_out - np.einsum("ij,ij->i", u_in, u_out)[:, None] * u_in
-        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-        corner = raw.points(el.u1[j])
-        centre = corner - u_in * d[:, None] + radius[:, None] * normal
-        ua, ub = el.u1[j] - d, el.u0[j + 1] + d
-        runs.ua[blends], runs.ub[blends] = ua, ub
-        b.arcs(ua, ub, radius * alpha[j], centre, -normal, u_in, np.zeros((len(j), 3)), radius, 0.0, 1.0 / radius, 0.0)
+        room = np.minimum(el.u1[j] - runs.ua[blends], runs.ub[blends] - el.u0[j + 1])
+        v_full = np.minimum(np.minimum(seg_feed[el.seg[j]], seg_feed[el.seg[j + 1]]),
+                            np.minimum(limits.along(el.t1[j])[0], limits.along(el.t0[j + 1])[0]))
+        d, coef = _corner_parabolas(raw.points(el.u1[j]), el.t1[j], el.t0[j + 1], room, v_full, tol_fit, limits)
+        runs.ua[blends], runs.ub[blends] = el.u1[j] - d, el.u0[j + 1] + d
+        for ua, ub, c in zip(runs.ua[blends], runs.ub[blends], coef):
+            b.polys([ua, ub], c[None])
     fits = np.flatnonzero(~runs.arc)
     failed = 0
     deviation = 0.0
-    stop_extra = []
     if len(fits):
         pending, h, devs = fits, _KNOT_TOL * tolerance, []
         for attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots

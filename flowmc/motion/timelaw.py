@@ -46,19 +46,24 @@ import numpy as np
 from flowmc.errors import PlanningError
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.ranges import window_min
+from flowmc.motion.ranges import window_max, window_min
 
 __all__ = ["TimeLaw", "plan_time_law", "sample_time_law"]
 
 _RHO = 0.99  # caps start at this share of what the normal acceleration (and jerk) alone allow
 _ROUNDS = 12
+_REACH_PROFILE_ROUNDS = 4
 _CONVERGED = 3e-3  # stop when the feasible profile is within this share of the top speed^2 of the one above
 _LINE_STEP = 2.0  # mm of u between grid nodes on lines
+_LINE_STEP_JERK = 0.25  # finer for jerk-limited profiles: their plateaus start and end at nodes
 _ARC_STEP_RAD = math.radians(3.0)
 _POLY_SUB = 2  # grid intervals per spline interval
 _REFINE = 6  # rounds of halving grid intervals where the curve turns more than _TURN_STEP (rad) ...
 _TURN_STEP = math.radians(2.0)
 _KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
+_SWING_ROUNDS = 3
+_PLATEAU_ROUNDS = 8
+_REACH_ROUNDS = 2
 _JERK_SHARE = 0.97  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
 
@@ -102,14 +107,14 @@ class TimeLaw:
         return u
 
 
-def _grid(curve: PlannedCurve, stop_u: np.ndarray) -> np.ndarray:
+def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarray:
     """Nodes: every interval boundary and stop, lines every _LINE_STEP, arcs every few degrees, splines
     halved; and a node between any two stops, so no interval starts and ends at rest."""
     parts = [curve.u0, curve.u1[-1:], stop_u]
     width = curve.u1 - curve.u0
     line = (curve.kind == POLY) & np.all(curve.coef[:, 2:] == 0.0, axis=(1, 2))
     arc = curve.kind == ARC
-    n = np.where(line, np.ceil(width / _LINE_STEP),
+    n = np.where(line, np.ceil(width / line_step),
                  np.where(arc, np.ceil(np.abs(curve.dphi) * width / _ARC_STEP_RAD), _POLY_SUB)).astype(int)
     n = np.maximum(n, 1)
     sub = np.flatnonzero(n > 1)
@@ -200,42 +205,46 @@ class _Budgets:
 
     Acceleration, per axis: -amax_i <= T_i a + K_i y <= amax_i, so a speed-up may use
     (amax_i - sign(T_i) K_i y) / |T_i| and a slow-down (amax_i + sign(T_i) K_i y) / |T_i|, at their worst
-    over 0 <= y <= Y: linear in Y, so kept as (m, 9) coefficients (three points by three axes). Jerk,
-    when filtered over Tj (symmetric): |T_i| 2A/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share * jmax_i.
+    over 0 <= y <= Y. Jerk, when filtered over Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share *
+    jmax_i, with J the largest jump of the acceleration within Tj (the budget, or twice it). Each axis
+    takes the worst of every term over the interval's three points (conservative, and three columns
+    instead of nine).
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
-        def per_interval(a):  # (3m, 3) -> (m, 9): the interval's three points side by side
-            return a.reshape(3, m, 3).transpose(1, 0, 2).reshape(m, 9)
+        def worst(a):  # (3m, 3) -> (m, 3): the largest over the interval's three points, per axis
+            return a.reshape(3, m, 3).max(axis=0)
 
-        t = per_interval(g.t)
-        amax = np.tile(lim.amax, 3)[None, :]
+        t = worst(g.t)
         moving = t > 0
         inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
-        self.alpha = np.where(moving, amax * inv_t, np.inf)
-        kt = per_interval(g.kt)
-        self.beta_up = np.maximum(kt, 0.0) * inv_t
-        self.beta_down = np.maximum(-kt, 0.0) * inv_t
+        self.alpha = np.where(moving, lim.amax[None, :] * inv_t, np.inf)
+        self.beta_up = worst(np.maximum(g.kt, 0.0)) * inv_t
+        self.beta_down = worst(np.maximum(-g.kt, 0.0)) * inv_t
         self.window = window
         if window > 0:
-            self.jmax = np.tile(_JERK_SHARE * lim.jmax, 3)[None, :]
-            self.t, self.k, self.p3 = t, per_interval(g.k), per_interval(g.p3)
+            self.jmax = _JERK_SHARE * lim.jmax[None, :]
+            self.t_win, self.k3, self.p3 = t / window, 3.0 * worst(g.k), worst(g.p3)
 
-    def __call__(self, level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
+        up to twice the budget within Tj), elsewhere for jumps of up to the budget."""
         y = level[:, None]
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", divide="ignore"):
             up = np.min(self.alpha - self.beta_up * y, axis=1)
             down = np.min(self.alpha - self.beta_down * y, axis=1)
             if self.window > 0:
-                coeff = 2.0 * self.t / self.window + 3.0 * self.k * np.sqrt(y)
-                room = self.jmax - self.p3 * y**1.5
-                jerk = np.min(np.where(coeff > 0, room / np.where(coeff > 0, coeff, 1.0), np.inf), axis=1)
+                root = np.sqrt(y)
+                t_win = self.t_win if swing is None else self.t_win * (1.0 + swing)[:, None]
+                coeff = t_win + self.k3 * root
+                jerk = np.min(np.where(coeff > 0, (self.jmax - self.p3 * (y * root)) / coeff, np.inf), axis=1)
                 up, down = np.minimum(up, jerk), np.minimum(down, jerk)
         clean = [np.maximum(np.where(np.isfinite(b), b, 1e12), 1e-9) for b in (up, down)]
         return clean[0], clean[1]
 
 
-def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of) -> tuple[np.ndarray, np.ndarray]:
+def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
+             node_limit: np.ndarray | None = None, rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
     """The fastest profile whose tangential budget on each interval is taken at its own speed there.
 
     T(y) = the scans with budgets taken at the profile y is antitone, so from y = 0 the iterates alternate
@@ -244,10 +253,12 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of) -> t
     feasible profile and its budgets.
     """
     node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
+    if node_limit is not None:
+        node_cap = np.minimum(node_cap, node_limit)
     node_cap[stops] = 0.0
     high = _scan(node_cap, ds, budget_of(np.zeros_like(cap)))
     low = budget = None
-    for _ in range(_ROUNDS):
+    for _ in range(rounds):
         budget = budget_of(np.minimum(cap, np.maximum(high[:-1], high[1:])))
         low = _scan(node_cap, ds, budget)
         if np.max(high - low) <= _CONVERGED * max(float(np.max(high)), 1e-12):
@@ -263,7 +274,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     ``feed_of_u(u)`` gives the path-speed cap at curve parameters u; ``stop_u`` are parameters where the
     tool rests (with ``stop_dwell`` seconds, owned by dwell segment ``stop_segment`` or -1).
     """
-    u = _grid(curve, stop_u)
+    u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP)
     du = np.diff(u)
     if np.any(du <= 0):
         raise PlanningError("the planned curve has an empty interval", where="planner")
@@ -281,24 +292,166 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     cap = np.minimum(np.min(y_vel.reshape(3, m), axis=0), _RHO * np.min(y_acc.reshape(3, m), axis=0))
     stops = np.searchsorted(u, stop_u)
-    window = 2.0 * float(np.max((lim.amax / lim.jmax)[list(lim.cols)])) if jerk else 0.0
+    window = float(np.max((lim.amax / lim.jmax)[list(lim.cols)])) if jerk else 0.0
 
     budget_of = _Budgets(geo, m, lim, window)
     y, budget = _profile(cap, stops, ds, budget_of)
     if jerk:
-        # Every cap and budget the filtered motion meets at s is one the unfiltered motion met within the
-        # window's reach around s: from this (faster) profile, the stretch covered within Tj/2 either side.
-        t = _node_times(y, ds)
-        lo = np.clip(np.searchsorted(t, t - 0.5 * window, side="left") - 1, 0, m - 1)[:-1]
-        hi = np.clip(np.searchsorted(t, t + 0.5 * window, side="right") - 1, 0, m - 1)[:-1]
-        level = np.minimum(cap, np.maximum(y[:-1], y[1:]))
-        cap_e = window_min(level, lo, np.maximum(hi, lo))
-        budget_e = tuple(window_min(b, lo, np.maximum(hi, lo)) for b in budget)
-        node_cap = np.minimum(np.r_[cap_e, np.inf], np.r_[np.inf, cap_e])
-        node_cap[stops] = 0.0
-        y = _scan(node_cap, ds, budget_e)
+        rest = np.zeros(len(u))
+        rest[stops] = window + lim.period
+        rest[[0, -1]] = 0.0
+        np.add.at(rest, stops, stop_dwell)
+        y = _filterable(y, cap, budget_of, stops, ds, window, rest)
     accel = np.diff(y) / (2.0 * ds)
     return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
+
+
+def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
+                window: float, rest: np.ndarray) -> np.ndarray:
+    """The profile made fit for the moving average over Tj.
+
+    1. The filtered motion at time t averages the unfiltered one over [t - Tj, t], so wherever it is,
+       the unfiltered motion it averages lies within Tj of the time that motion passed there: every cap
+       and budget becomes the smallest within that reach, taken from a profile at least as fast as the
+       result (the reach of a faster profile is the wider). Planning within a profile's reach is
+       antitone in that profile, so the two alternate: every second result, capped by the faster one it
+       came from, is safe, and they increase.
+    2. The jerk of the filtered motion is (a(t) - a(t - Tj)) / Tj. The budgets allow a jump of one
+       budget within Tj. A swing further than that (speeding up within Tj of slowing down) is mostly a
+       peak: those are cut flat for Tj (``_flatten_peaks``). Wherever a swing remains, the intervals
+       involved get budgets safe for a swing of twice the budget, and it is planned again.
+    """
+    m = len(ds)
+    swing = np.zeros(m, dtype=bool)
+    fastest = y
+    for _ in range(_SWING_ROUNDS):
+        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window)
+        # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
+        node_cap = np.full(m + 1, np.inf)
+        node_cap[stops] = 0.0
+        for _ in range(_PLATEAU_ROUNDS):
+            lowered = _flatten_peaks(y, ds, window)
+            if lowered is None:
+                break
+            node_cap = np.minimum(node_cap, lowered)
+            y = _scan(np.minimum(node_cap, y), ds, budget_e)
+        depart = _node_times(y, ds) + np.cumsum(rest)  # the rests at stops (sample_time_law) separate too
+        arrive = depart - rest
+        a = np.diff(y) / (2.0 * ds)
+        # partners of interval k: the intervals the motion was on Tj earlier, during its time on k
+        p_lo = np.searchsorted(arrive[1:], depart[:-1] - window, side="right")
+        p_hi = np.searchsorted(depart[:-1], arrive[1:] - window, side="left") - 1
+        has = p_hi >= p_lo
+        p_lo, p_hi = np.clip(p_lo, 0, m - 1), np.clip(np.maximum(p_hi, p_lo), 0, m - 1)
+        allowed = np.minimum(*budget_of(np.minimum(cap, np.maximum(y[:-1], y[1:])), None))
+        allowed = window_min(allowed, *reach)
+        over = ((window_max(a, p_lo, p_hi) - a > allowed * (1 + 1e-9))
+                | (a - window_min(a, p_lo, p_hi) > allowed * (1 + 1e-9)))
+        over &= ~swing & has
+        if not over.any():
+            break
+        # mark each offending interval and its partners (a difference array over the ranges)
+        k = np.flatnonzero(over)
+        mark = np.zeros(m + 1, dtype=int)
+        np.add.at(mark, p_lo[k], 1)
+        np.add.at(mark, p_hi[k] + 1, -1)
+        swing |= (np.cumsum(mark)[:m] > 0) | over
+    return y
+
+
+def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.ndarray, stops: np.ndarray,
+                  ds: np.ndarray, window: float):
+    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval)."""
+    m = len(ds)
+
+    def reach_of(faster: np.ndarray):
+        t = _node_times(faster, ds)
+        # an interval's reach: every interval passed within Tj of any time spent on it
+        lo = np.clip(np.searchsorted(t, t[:-1] - window, side="left") - 1, 0, m - 1)
+        hi = np.maximum(np.clip(np.searchsorted(t, t[1:] + window, side="right") - 1, 0, m - 1), lo)
+        return lo, hi
+
+    def planned(faster: np.ndarray, limit: np.ndarray | None):
+        lo, hi = reach_of(faster)
+
+        def reach_budget(level):
+            return tuple(window_min(b, lo, hi) for b in budget_of(level, swing))
+
+        y, budget = _profile(window_min(cap, lo, hi), stops, ds, reach_budget, node_limit=limit,
+                             rounds=_REACH_PROFILE_ROUNDS)
+        return y, budget, (lo, hi)
+
+    high = fastest
+    for _ in range(_REACH_ROUNDS):
+        y, budget, reach = planned(high, high)
+        if np.max(high - y) <= _CONVERGED * max(float(np.max(high)), 1e-12):
+            break
+        high = np.maximum(planned(y, None)[0], y)
+    return y, budget, reach
+
+
+def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
+    """Node caps that cut every peak of the profile flat for at least ``window`` seconds; None if all are.
+
+    A peak is a stretch of constant speed (possibly a single node) with speeding up before it and slowing
+    down after. Cut at level L, its plateau runs between the nodes where the rising and the falling side
+    reach L, and lasts that distance over sqrt(L); the level is
+    found by bisection, for all peaks at once. The plateau counts from node to node only: the grid
+    intervals where the sides cross the level still change speed a little.
+    """
+    dy = np.diff(y)
+    tiny = 1e-9 * max(float(np.max(y)), 1.0)
+    sign = np.where(dy > tiny, 1, np.where(dy < -tiny, -1, 0))
+    v = np.sqrt(np.maximum(y, 0.0))
+    dt = 2.0 * ds / np.maximum(v[:-1] + v[1:], 1e-300)
+    moving = np.flatnonzero(sign != 0)
+    if len(moving) < 2:
+        return None
+    turn = (sign[moving[:-1]] > 0) & (sign[moving[1:]] < 0)
+    rise, fall = moving[:-1][turn], moving[1:][turn]  # last rising interval, first falling one
+    flat_time = np.cumsum(np.r_[0.0, np.where(sign == 0, dt, 0.0)])
+    short = flat_time[fall] - flat_time[rise + 1] < window * (1.0 - 1e-6)
+    if not short.any():
+        return None
+    rise, fall = rise[short], fall[short]
+    s = np.r_[0.0, np.cumsum(ds)]
+    # each peak's sides: the run of rising intervals ending at its last rise, the falling run from its first fall
+    run_start = np.r_[True, sign[1:] != sign[:-1]]
+    run_id = np.cumsum(run_start) - 1
+    first_of_run = np.flatnonzero(run_start)
+    last_of_run = np.r_[first_of_run[1:] - 1, len(sign) - 1]
+    left0 = first_of_run[run_id[rise]]
+    right1 = last_of_run[run_id[fall]] + 1
+    top = y[rise + 1]
+    lo, hi = np.maximum(y[left0], y[right1]), top.copy()
+    # one sorted key array per side, peaks kept apart by multiples of a big offset
+    big = 2.0 * float(np.max(y)) + 1.0
+    idx = np.arange(len(rise))
+    l_len, r_len = rise + 2 - left0, right1 - fall + 1
+    l_nodes = np.concatenate([np.arange(a, b + 2) for a, b in zip(left0, rise)])
+    r_nodes = np.concatenate([np.arange(a, b + 1)[::-1] for a, b in zip(fall, right1)])
+    l_key = y[l_nodes] + np.repeat(idx, l_len) * big
+    r_key = y[r_nodes] + np.repeat(idx, r_len) * big
+    l_off, r_off = np.r_[0, np.cumsum(l_len)[:-1]], np.r_[0, np.cumsum(r_len)[:-1]]
+
+    def inner(key, nodes, off, length, level):
+        """Where the side is first at or above the level, at a node (the plateau starts and ends at nodes)."""
+        j = np.clip(np.searchsorted(key, level + idx * big), off, off + length - 1)
+        return s[nodes[j]]
+
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        width = inner(r_key, r_nodes, r_off, r_len, mid) - inner(l_key, l_nodes, l_off, l_len, mid)
+        wide = width >= window * np.sqrt(mid)
+        lo, hi = np.where(wide, mid, lo), np.where(wide, hi, mid)
+    level = np.minimum(lo, top * (1.0 - 1e-6))
+    # every node of a peak above its level is capped there
+    caps = np.full(len(y), np.inf)
+    for nodes, length in ((l_nodes, l_len), (r_nodes, r_len)):
+        lv = np.repeat(level, length)
+        above = y[nodes] > lv
+        np.minimum.at(caps, nodes[above], lv[above])
+    return caps
 
 
 def _node_times(y: np.ndarray, ds: np.ndarray) -> np.ndarray:
