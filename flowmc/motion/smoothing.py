@@ -64,6 +64,9 @@ _CURVE_STEP = 1.0  # mm: tabulated curves (ellipse, NURBS) become cubic splines 
 _G2_STRETCH = 2.0  # a curvature-continuous corner needs this many times the tangent arc's trim
 _SHARP = math.radians(30.0)  # corners turning more than this are fitted on their own, with finer knots
 _FIT_ITER = 16
+_FIT_SETTLE = 6  # iterations that may also smooth more where the tolerance is met with room to spare
+_SPARE = 0.6
+_RELAX = 1.6
 _MIN_SPANS = 10  # a run, however short, has room to turn: six of its control points are held by its ends
 _KNOT_TOL = 2.0  # knot spacing, in tolerances
 _REFINE_KNOTS = 1  # times a run that misses the tolerance is fitted again with knots twice as dense
@@ -402,25 +405,36 @@ class _RunFitter:
         return solveh_banded(ab, rhs, check_finite=False)
 
     def _iterate(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Solve, then smooth less wherever the tolerance is not met, until it is everywhere or the budget ends."""
-        coef = dev = ok = None
-        for _ in range(_FIT_ITER):
+        """Solve, then smooth less wherever the tolerance is not met and more wherever it is met with room to
+        spare, so the fit settles where it just keeps the tolerance. Each run keeps its last fit that met
+        it (or its last, if none did)."""
+        best = np.zeros((self.total, 3))
+        ok_any = np.zeros(len(self.ua), dtype=bool)
+        dev_best = np.full(len(self.ua), np.inf)
+        cp_run = np.repeat(np.arange(len(self.ua)), self.ncp)
+        for it in range(_FIT_ITER):
             coef = self._solve()
             resid = np.linalg.norm(self.design @ coef - self.q, axis=1)
             dev = np.maximum.reduceat(resid, self.bounds[:-1])
             ok = dev <= self.tol
-            if ok.all():
+            take = (ok | ~ok_any)[cp_run]
+            best[take] = coef[take]
+            dev_best = np.where(ok | ~ok_any, dev, dev_best)
+            ok_any |= ok
+            if ok.all() and it >= _FIT_SETTLE:
                 break
             over = np.zeros(self.total)
             for j in range(4):
                 np.maximum.at(over, self.span_of + j, resid / self.tol)
             row_over = window_max(over, self.reach_lo, self.reach_hi)
-            # never below the smoothing of one knot span: less only lets the parameter wander along the path
             scale = np.where(row_over > 1.0, self.scale / (1.2 * row_over**2), self.scale)
+            if it < _FIT_SETTLE:  # room to spare: smooth more again (up to where it started)
+                scale = np.where(row_over < _SPARE, np.minimum(scale * _RELAX, 1.0), scale)
             # changed gently along the run: a step in smoothing makes a kink in the curve's parameter
-            scale = np.exp(np.minimum(uniform_filter1d(np.log(scale), size=_BLUR), np.log(scale) + 0.0))
+            scale = np.exp(np.minimum(uniform_filter1d(np.log(scale), size=_BLUR), np.log(scale)))
+            # never below the smoothing of one knot span: less only lets the parameter wander along the path
             self.scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, self.scale, np.inf)), self.floor)
-        return coef, ok, dev
+        return best, ok_any, dev_best
 
     def _arc_length_params(self, coef: np.ndarray, width: np.ndarray):
         """Foot of each data point on the fitted curves (two Newton steps from its parameter), as arc length
