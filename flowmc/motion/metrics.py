@@ -26,6 +26,7 @@ __all__ = [
     "corner_spike_ratio",
     "programmed_polyline",
     "contour_error",
+    "coverage_error",
     "feed_fluctuation",
     "trajectory_report",
 ]
@@ -162,6 +163,22 @@ def contour_error(positions: np.ndarray, polyline: np.ndarray) -> float:
         a, b = pts[:, :-1].reshape(-1, dim), pts[:, 1:].reshape(-1, dim)
         da, db, oa, ob = dd[:, :-1].ravel(), dd[:, 1:].ravel(), oo[:, :-1].ravel(), oo[:, 1:].ravel()
     return best
+
+
+def coverage_error(positions: np.ndarray, polyline: np.ndarray, spacing: float = 0.005) -> float:
+    """The other way round from ``contour_error``: the largest distance from any point of the programmed
+    polyline (every vertex, and points at most ``spacing`` mm apart along it) to the sampled tool path
+    (the polyline through the setpoints). A plan that skips part of the path shows here."""
+    path = np.asarray(polyline, dtype=float)
+    steps = np.diff(path, axis=0)
+    n = np.maximum(1, np.ceil(np.linalg.norm(steps, axis=1) / spacing).astype(int))
+    frac = np.concatenate([np.arange(k) / k for k in n])
+    owner = np.repeat(np.arange(len(steps)), n)
+    points = np.vstack([path[owner] + frac[:, None] * steps[owner], path[-1:]])
+    tool = np.asarray(positions, dtype=float)
+    tool = tool[np.r_[True, np.any(np.diff(tool, axis=0) != 0, axis=1)]]  # rests add nothing
+    d, _ = _PolylineDistance(tool)(points)
+    return float(d.max())
 
 
 def feed_fluctuation(positions: np.ndarray, period: float, feed, lengths=None) -> dict:

@@ -50,11 +50,11 @@ from flowmc.motion.ranges import window_max, window_min
 
 __all__ = ["TimeLaw", "plan_time_law", "sample_time_law"]
 
-_RHO = 0.99  # caps start at this share of what the normal acceleration (and jerk) alone allow
-_ROUNDS = 12
+_RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
+_ROUNDS = 20
 _REACH_PROFILE_ROUNDS = 4
-_CONVERGED = 3e-3  # stop when the feasible profile is within this share of the top speed^2 of the one above
-_LINE_STEP = 2.0  # mm of u between grid nodes on lines
+_CONVERGED = 2e-3  # stop when the feasible profile is within this share of the top speed^2 of the one above
+_LINE_STEP = 0.5  # mm of u between grid nodes on lines (a peak between nodes is cut flat)
 _LINE_STEP_JERK = 0.25  # finer for jerk-limited profiles: their plateaus start and end at nodes
 _ARC_STEP_RAD = math.radians(3.0)
 _POLY_SUB = 2  # grid intervals per spline interval
@@ -88,7 +88,9 @@ class TimeLaw:
         """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends),
         then two Newton steps on the arc length from the interval's start (3-point Gauss-Legendre, exact to
         rounding over intervals this short)."""
-        s = np.clip(np.asarray(s, dtype=float), self.s[0], self.s[-1])
+        s = np.clip(np.asarray(s, dtype=float).reshape(-1), self.s[0], self.s[-1])
+        if not len(s):
+            return s.copy()
         k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
         h = self.s[k + 1] - self.s[k]
         x = np.where(h > 0, (s - self.s[k]) / np.where(h > 0, h, 1.0), 0.0)
@@ -216,9 +218,9 @@ class _Budgets:
             return a.reshape(3, m, 3).max(axis=0)
 
         t = worst(g.t)
-        moving = t > 0
+        moving = t > 0  # never on a column the machine lacks (its limits are inf)
         inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
-        self.alpha = np.where(moving, lim.amax[None, :] * inv_t, np.inf)
+        self.alpha = np.where(moving, np.where(moving, lim.amax[None, :], 1.0) * inv_t, np.inf)
         self.beta_up = worst(np.maximum(g.kt, 0.0)) * inv_t
         self.beta_down = worst(np.maximum(-g.kt, 0.0)) * inv_t
         self.window = window
@@ -243,6 +245,11 @@ class _Budgets:
         return clean[0], clean[1]
 
 
+def _converged(high: np.ndarray, low: np.ndarray) -> bool:
+    """The profiles from above and from below agree within _CONVERGED of the speed^2 at every node."""
+    return bool(np.all(high - low <= _CONVERGED * high + 1e-9 * float(np.max(high))))
+
+
 def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
              node_limit: np.ndarray | None = None, rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
     """The fastest profile whose tangential budget on each interval is taken at its own speed there.
@@ -261,7 +268,7 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     for _ in range(rounds):
         budget = budget_of(np.minimum(cap, np.maximum(high[:-1], high[1:])))
         low = _scan(node_cap, ds, budget)
-        if np.max(high - low) <= _CONVERGED * max(float(np.max(high)), 1e-12):
+        if _converged(high, low):
             break
         high = _scan(node_cap, ds, budget_of(np.minimum(cap, np.maximum(low[:-1], low[1:]))))
     return low, budget
@@ -297,11 +304,8 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     budget_of = _Budgets(geo, m, lim, window)
     y, budget = _profile(cap, stops, ds, budget_of)
     if jerk:
-        rest = np.zeros(len(u))
-        rest[stops] = window + lim.period
-        rest[[0, -1]] = 0.0
-        np.add.at(rest, stops, stop_dwell)
-        y = _filterable(y, cap, budget_of, stops, ds, window, rest)
+        y = _filterable(y, cap, budget_of, stops, ds, window, _stop_waits(len(u), stops, stop_dwell, window,
+                                                                          lim.period))
     accel = np.diff(y) / (2.0 * ds)
     return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
 
@@ -384,7 +388,7 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
     high = fastest
     for _ in range(_REACH_ROUNDS):
         y, budget, reach = planned(high, high)
-        if np.max(high - y) <= _CONVERGED * max(float(np.max(high)), 1e-12):
+        if _converged(high, y):
             break
         high = np.maximum(planned(y, None)[0], y)
     return y, budget, reach
@@ -493,18 +497,25 @@ class _Phases:
         return cum[k] + inside + after + before
 
 
+def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float, period: float) -> np.ndarray:
+    """How long the unfiltered motion waits at each node: at every stop inside the program its dwell, but at
+    least a period, so that no sampled acceleration sees both the arrival and the departure (which may go
+    another way); plus Tj when filtered, so that the filtered motion rests there that long too. At the
+    program's ends, the dwell."""
+    wait = np.zeros(n)
+    np.add.at(wait, stop_node, dwell)
+    inner = np.zeros(n, dtype=bool)
+    inner[stop_node] = True
+    inner[[0, -1]] = False
+    wait[inner] = np.maximum(wait[inner], period) + window
+    return wait
+
+
 def _phases(law: TimeLaw) -> _Phases:
     s, y = law.s, law.y
     v = np.sqrt(np.maximum(y, 0.0))
     dt = 2.0 * np.diff(s) / np.maximum(v[:-1] + v[1:], 1e-300)
-    wait = np.zeros(len(s))
-    np.add.at(wait, law.stop_node, law.stop_wait)
-    # rest at every stop inside the program: a period, so that no sampled acceleration sees both the arrival
-    # and the departure (which may go another way); plus Tj when filtered, so the filtered motion stops too
-    inner = np.zeros(len(s), dtype=bool)
-    inner[law.stop_node] = True
-    inner[[0, -1]] = False
-    wait[inner] += law.window + law.period
+    wait = _stop_waits(len(s), law.stop_node, law.stop_wait, law.window, law.period)
     owner = np.full(len(s), -1)
     owner[law.stop_node] = law.stop_segment
     n = len(s)
@@ -537,7 +548,9 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float) -> tuple[n
         s = ((ph.integral(ts) - ph.integral(ts - tj)) / np.longdouble(tj)).astype(float)
         k0, _ = ph.at(ts - tj)
         k1, _ = ph.at(ts)
-        seg = np.where((k0 == k1) & (ph.owner[k1] >= 0), ph.owner[k1], -1)  # the whole window rests in a dwell
+        resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
+        s = np.where(resting, ph.s0[k1], s)
+        seg = np.where(resting & (ph.owner[k1] >= 0), ph.owner[k1], -1)
     u = law.u_at(s, curve)
     u[-1] = law.u[-1]
     return u, seg

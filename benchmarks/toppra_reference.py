@@ -75,13 +75,19 @@ def toppra_time(plan, machine, feed: float, grid_step: float = 0.01) -> float:
     for a, b in zip(stops[:-1], stops[1:]):
         if b - a <= 1e-9:
             continue
-        grid = np.linspace(a, b, int(np.ceil((b - a) / grid_step)) + 1)  # uniform: close points upset TOPP-RA
         path = _Stretch(plan, cols, a, b)
+        # collocation (constraints at the grid points), the discretisation flowmc's time law uses too; the
+        # default interpolation scheme fails on some gently curved stretches (controllable set empty)
         constraints = [toppra.constraint.JointVelocityConstraint(np.c_[-vlim, vlim]),
-                       toppra.constraint.JointAccelerationConstraint(np.c_[-alim, alim])]
-        algo = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid, parametrizer="ParametrizeConstAccel")
-        _, sd, _, _ = algo.compute_parameterization(0.0, 0.0, return_data=True)
-        if sd is None or np.any(~np.isfinite(sd)):
+                       toppra.constraint.JointAccelerationConstraint(
+                           np.c_[-alim, alim], discretization_scheme=toppra.constraint.DiscretizationType.Collocation)]
+        for stretch in (1.0, 0.93, 1.07, 0.81):  # TOPP-RA's LPs now and then fail on one grid and not the next
+            grid = np.linspace(a, b, int(np.ceil((b - a) / (grid_step * stretch))) + 1)  # uniform grids suit it
+            algo = toppra.algorithm.TOPPRA(constraints, path, gridpoints=grid, parametrizer="ParametrizeConstAccel")
+            _, sd, _, _ = algo.compute_parameterization(0.0, 0.0, return_data=True)
+            if sd is not None and np.all(np.isfinite(sd)):
+                break
+        else:
             raise RuntimeError(f"TOPP-RA found no parameterisation of the stretch {a:.3f}..{b:.3f} mm")
         sd = np.maximum(sd, 0.0)
         total += float(np.sum(2.0 * np.diff(grid) / np.maximum(sd[:-1] + sd[1:], 1e-300)))
