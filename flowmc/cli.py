@@ -7,7 +7,6 @@ Every problem is one line on stderr; no tracebacks (set FLOWMC_DEBUG=1 to see th
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import math
 import os
@@ -65,12 +64,8 @@ def _split_assignment(item: str, option: str) -> tuple[str, str]:
     return key.strip(), value
 
 
-def apply_sets(graph: Any, sets: list[str]) -> None:
+def apply_sets(graph: Any, sets: list[str], registry: Any) -> None:
     """``--set NODE.PARAM=VALUE``: change stored params; unknown nodes or params are errors."""
-    from flowmc import registry
-    from flowmc.nodes import load_all
-
-    load_all()
     for item in sets:
         target, text = _split_assignment(item, "--set")
         node_id, dot, param = target.partition(".")
@@ -170,13 +165,26 @@ def _print_issues(where: str, issues: list) -> None:
 
 # ---------------------------------------------------------------- commands
 
+def _registry(args: argparse.Namespace) -> Any:
+    """The default registry, with the node folders given by ``--nodes``."""
+    from flowmc.plugins import add_node_folder, default_registry
+
+    registry = default_registry()
+    for folder in getattr(args, "nodes", None) or []:
+        if not Path(folder).is_dir():
+            raise UsageError(f"--nodes {folder}: not a folder")
+        add_node_folder(registry, folder)
+    return registry
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     import flowmc
 
     graph = flowmc.load(args.file)
-    apply_sets(graph, args.set)
+    registry = _registry(args)
+    apply_sets(graph, args.set, registry)
     inputs = parse_inputs(graph, args.input)
-    runtime = flowmc.Runtime()
+    runtime = flowmc.Runtime(registry)
     plan = runtime.plan(graph)
     if plan.issues:
         _print_issues(args.file, plan.issues)
@@ -199,7 +207,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     import flowmc
 
     graph = flowmc.load(args.file)
-    plan = flowmc.Runtime().plan(graph)
+    plan = flowmc.Runtime(_registry(args)).plan(graph)
     if plan.issues:
         _print_issues(args.file, plan.issues)
         return EXIT_INVALID
@@ -216,10 +224,7 @@ def _port_line(kind: str, port: dict[str, Any]) -> str:
 
 
 def cmd_nodes(args: argparse.Namespace) -> int:
-    from flowmc import registry
-    from flowmc.nodes import load_all
-
-    failures = load_all()
+    registry = _registry(args)
     described = registry.describe_all(Path.cwd())
     if args.json:
         print(json.dumps(described, indent=2))
@@ -236,8 +241,8 @@ def cmd_nodes(args: argparse.Namespace) -> int:
                     print(f"    param {name}: {prop.get('type', 'value')}" + (f" = {json.dumps(prop['default'])}" if "default" in prop else ""))
             for port in d["outputs"]:
                 print(_port_line("out", port))
-    for module, error in failures.items():
-        _err(f"warning: node module {module} failed to load: {error}")
+    for where, error in registry.failures.items():
+        _err(f"warning: {where} failed to load: {error}")
     return EXIT_OK
 
 
@@ -249,33 +254,63 @@ def cmd_schema(args: argparse.Namespace) -> int:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    """The editor, composed here: the UI gets the node types loaded and one device session to share."""
+    """The editor, composed here: the UI gets the registry (with the --nodes folders) and one device
+    session to share."""
     from flowmc.devices.session import DeviceSession
-    from flowmc.nodes import load_all
     from flowmc.ui.app import serve_main
 
-    load_all()
+    _registry(args)
     return serve_main(args, devices=DeviceSession())
 
 
-def _delegate(module: str, function: str, what: str) -> Callable[[argparse.Namespace], int]:
-    def command(args: argparse.Namespace) -> int:
-        try:
-            target = getattr(importlib.import_module(module), function)
-        except (ImportError, AttributeError) as exc:
-            _err(f"flowmc {args.command}: {what} is not available ({module}.{function}: {exc})")
-            return EXIT_FAILED
-        code = target(args)
-        return EXIT_OK if code is None else int(code)
+def _graph_values(file: str, registry: Any) -> tuple[Any, Any, Any]:
+    """The last Path and Machine the graph produces, and its look-ahead plan if it has one."""
+    import flowmc
+    from flowmc.motion.machine import Machine
+    from flowmc.motion.path import Path as MotionPath
+    from flowmc.motion.trajectory import Trajectory
 
-    return command
+    graph = flowmc.load(file)
+    result = flowmc.Runtime(registry).run(graph)
+    if not result.ok:
+        raise GraphError("the graph failed: " + "; ".join(result.errors), where=file)
+    types = {node.id: node.type for node in graph.nodes}
+    path = machine = plan = None
+    for node_id in result.order:
+        outputs = result.nodes[node_id].outputs
+        for value in outputs.values():
+            if isinstance(value, MotionPath):
+                path = value
+            elif isinstance(value, Machine):
+                machine = value
+        if types.get(node_id) == "plan.lookahead" and isinstance(outputs.get("trajectory"), Trajectory):
+            plan = outputs["trajectory"]
+    if path is None:
+        raise GraphError("the graph produces no Path to compare", where=file)
+    return path, machine, plan
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    """Print flowmc's plan of the graph's path beside what LinuxCNC executed for it."""
+    from flowmc.devices.linuxcnc.compare import compare_path
+
+    path, machine, plan = _graph_values(args.graph, _registry(args))
+    comparison = compare_path(path, machine, tolerance=args.tolerance, flowmc=plan)
+    source = "the graph's look-ahead plan" if plan is not None else "flowmc's look-ahead planner"
+    print(f"{args.graph}: {source} vs LinuxCNC (G64 P{args.tolerance:g}, servo period "
+          f"{comparison.linuxcnc.servo_period * 1e3:g} ms)")
+    print(comparison.text())
+    return EXIT_OK
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    plugins = argparse.ArgumentParser(add_help=False)
+    plugins.add_argument("--nodes", action="append", default=[], metavar="DIR",
+                         help="also load the node types in this folder's *.py files (repeatable)")
 
-    p = sub.add_parser("run", help="run a graph headless")
+    p = sub.add_parser("run", parents=[plugins], help="run a graph headless")
     p.add_argument("file", help="graph file (*.flowmc.json)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a stored param")
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
@@ -283,35 +318,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no per-node progress on stderr")
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("validate", help="check a graph without running it")
-    p.add_argument("file")
+    p = sub.add_parser("validate", parents=[plugins], help="check a graph without running it")
+    p.add_argument("file", help="graph file (*.flowmc.json)")
     p.set_defaults(func=cmd_validate)
 
-    p = sub.add_parser("nodes", help="list every node type with its ports and params")
+    p = sub.add_parser("nodes", parents=[plugins], help="list every node type with its ports and params")
     p.add_argument("--json", action="store_true", help="machine-readable description")
     p.set_defaults(func=cmd_nodes)
 
     p = sub.add_parser("schema", help="print the graph file JSON Schema")
     p.set_defaults(func=cmd_schema)
 
-    p = sub.add_parser("serve", help="open the graph editor in the browser")
-    p.add_argument("file", nargs="?", help="graph file to open")
-    p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=8080)
+    p = sub.add_parser("serve", parents=[plugins], help="open the graph editor in the browser")
+    p.add_argument("file", nargs="?", help="graph file to open (default: browse the current folder)")
+    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default: this machine only)")
+    p.add_argument("--port", type=int, default=8080, help="port to listen on")
     p.set_defaults(func=cmd_serve)
 
-    p = sub.add_parser("compare", help="compare a graph's motion with a reference implementation")
-    p.add_argument("graph")
-    p.add_argument("--with", dest="with_", choices=["linuxcnc"], default="linuxcnc",
-                   help="reference to compare with (args.with_, also getattr(args, 'with'))")
-    p.set_defaults(func=_delegate("flowmc.devices.linuxcnc.compare", "compare_main", "the LinuxCNC comparison"))
+    p = sub.add_parser("compare", parents=[plugins], help="compare a graph's motion with LinuxCNC's")
+    p.add_argument("graph", help="graph file whose last Path (and Machine, and look-ahead plan) is compared")
+    p.add_argument("--with", dest="reference", choices=["linuxcnc"], default="linuxcnc",
+                   help="the reference that runs the same program (default: linuxcnc)")
+    p.add_argument("--tolerance", type=float, default=0.05, metavar="MM",
+                   help="corner tolerance: G64 P for LinuxCNC, blend tolerance for flowmc (default: 0.05)")
+    p.set_defaults(func=cmd_compare)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if hasattr(args, "with_"):
-        setattr(args, "with", args.with_)
     try:
         return args.func(args)
     except GraphError as exc:

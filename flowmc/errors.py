@@ -6,6 +6,8 @@ says *where* (file, line, node id, segment) before *what*.
 
 from __future__ import annotations
 
+import re
+
 __all__ = [
     "FlowmcError",
     "GraphError",
@@ -15,7 +17,21 @@ __all__ = [
     "PlanningError",
     "DeviceError",
     "LimitError",
+    "printable",
 ]
+
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f\u2028\u2029\ud800-\udfff]")
+
+
+def printable(text: object, limit: int | None = None) -> str:
+    """``text`` safe to quote in a message: control characters (a terminal escape, NUL, a lone
+    surrogate) shown as ``\\x1b``-style escapes, and cut to ``limit`` characters with an ellipsis."""
+    s = text if isinstance(text, str) else str(text)
+    if _CONTROL.search(s):
+        s = _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100 else f"\\u{ord(m.group()):04x}", s)
+    if limit is not None and len(s) > limit:
+        s = s[:max(limit - 1, 0)] + "…"
+    return s
 
 
 class FlowmcError(Exception):

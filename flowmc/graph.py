@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
 from flowmc.errors import GraphError
 from flowmc.migrations import SCHEMA_VERSION, migrate
-from flowmc.registry import PORT_TYPES
+from flowmc.ports import PORT_TYPES
 
 __all__ = [
     "SCHEMA_VERSION",

@@ -1,8 +1,12 @@
-"""Node types with typed ports, and the registry that maps a type id to its class.
+"""Node types with typed ports, and the Registry that maps a type id to its class.
 
 A node type is one small class: typed ports declared once, a pydantic ``Params`` model
 and a ``run`` method. ``@register`` checks the declaration when the module is imported,
-so a mistake in a node type fails at once, not while a graph runs.
+so a mistake in a node type fails at once, not while a graph runs, and declares the class
+for any registry that loads its module (``flowmc.plugins`` builds the default one).
+
+A ``Registry`` is a plain object: the runtime is given one, and tests build their own.
+Library graphs (``lib.<stem>``) come from a ``LibrarySource`` the registry is given.
 
 Every scalar param (float/int -> Number, bool -> Bool, str/Literal -> Text) is also an
 optional input port of the same name: a wire there overrides the stored value.
@@ -11,16 +15,18 @@ optional input port of the same name: a wire there overrides the stored value.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import keyword
 import re
 import types
 import typing
-from dataclasses import dataclass
-from typing import Any, ClassVar, Iterator, Literal, NamedTuple
+from pathlib import Path
+from typing import Any, ClassVar, Iterable, Iterator, Literal, Protocol
 
 from pydantic import BaseModel, ConfigDict
 
 from flowmc.errors import GraphError
+from flowmc.ports import PORT_TYPES, REQUIRED, In, Out, Ports
 
 __all__ = [
     "PORT_TYPES",
@@ -30,66 +36,15 @@ __all__ = [
     "Ports",
     "NodeType",
     "NoParams",
+    "Registry",
+    "LibrarySource",
     "register",
-    "unregister",
-    "lookup",
-    "registered",
+    "declared_in",
     "describe",
-    "describe_all",
-    "scoped",
-    "generation",
     "check_ports",
 ]
 
-PORT_TYPES = ("Path", "Trajectory", "Steps", "Signal", "Machine", "Number", "Bool", "Text", "Table", "Log")
-
 _TYPE_ID = re.compile(r"^[a-z][a-z0-9_]*(\.[a-z][a-z0-9_]*)*$")
-
-
-class _Required:
-    """Sentinel: an input with no default must be wired."""
-
-    def __repr__(self) -> str:
-        return "REQUIRED"
-
-
-REQUIRED: Any = _Required()
-
-
-@dataclass(frozen=True)
-class In:
-    """An input port. ``type`` is one port type or a tuple of accepted types."""
-
-    name: str
-    type: str | tuple[str, ...]
-    doc: str = ""
-    default: Any = REQUIRED
-    param: bool = False  # True for the port that feeds a scalar param
-
-    @property
-    def types(self) -> tuple[str, ...]:
-        return (self.type,) if isinstance(self.type, str) else tuple(self.type)
-
-    @property
-    def required(self) -> bool:
-        return self.default is REQUIRED
-
-    def accepts(self, port_type: str) -> bool:
-        return port_type in self.types
-
-
-@dataclass(frozen=True)
-class Out:
-    """An output port of exactly one type."""
-
-    name: str
-    type: str
-    doc: str = ""
-
-
-class Ports(NamedTuple):
-    inputs: tuple[In, ...]
-    outputs: tuple[Out, ...]
 
 
 class NoParams(BaseModel):
@@ -173,20 +128,7 @@ def _param_ports(cls: type[NodeType]) -> tuple[In, ...]:
     return result
 
 
-# ---------------------------------------------------------------- registry
-
-_types: dict[str, type[NodeType]] = {}
-_generation = 0  # bumped on every change, so cached validation results can tell they are stale
-
-
-def _changed() -> None:
-    global _generation
-    _generation += 1
-
-
-def generation() -> int:
-    return _generation
-
+# ---------------------------------------------------------------- declarations
 
 def _port_name_ok(name: str) -> bool:
     return name.isidentifier() and not keyword.iskeyword(name) and name not in ("ctx", "params", "self")
@@ -196,7 +138,7 @@ def _check_declaration(cls: type) -> None:
     """Raise TypeError naming the class and the mistake; runs once, at import time."""
     where = f"node type {cls.__module__}.{cls.__qualname__}"
 
-    def fail(msg: str) -> None:
+    def fail(msg: str) -> typing.NoReturn:
         raise TypeError(f"{where}: {msg}")
 
     if not (isinstance(cls, type) and issubclass(cls, NodeType)):
@@ -249,58 +191,151 @@ def _check_ports(fail: Any, inputs: tuple[In, ...], outputs: tuple[Out, ...]) ->
             fail(f"output {port.name!r} has unknown port type {port.type!r}; known: {', '.join(PORT_TYPES)}")
 
 
+def check_ports(owner: str, ports: Ports) -> None:
+    """Raise TypeError if ``ports`` (from an overridden ``ports(params)``) are malformed."""
+
+    def fail(msg: str) -> typing.NoReturn:
+        raise TypeError(f"{owner}: {msg}")
+
+    _check_ports(fail, ports.inputs, ports.outputs)
+
+
+_declared: dict[tuple[str, str], type[NodeType]] = {}  # (module, qualname) -> class, in import order
+_checked: set[type] = set()
+
+
 def register(cls: type[NodeType]) -> type[NodeType]:
-    """Class decorator: check the declaration and add the type to the registry."""
+    """Class decorator for node modules: check the declaration now (TypeError naming the class),
+    and declare the class so that a registry loading its module picks it up."""
     _check_declaration(cls)
-    existing = _types.get(cls.type_id)
-    same = existing is not None and (existing.__module__, existing.__qualname__) == (cls.__module__, cls.__qualname__)
-    if existing is not None and not same:
-        raise TypeError(
-            f"type_id {cls.type_id!r} of {cls.__module__}.{cls.__qualname__} is already used by "
-            f"{existing.__module__}.{existing.__qualname__}"
-        )
-    _types[cls.type_id] = cls
-    _changed()
+    _checked.add(cls)
+    _declared[(cls.__module__, cls.__qualname__)] = cls
     return cls
 
 
-def unregister(type_id: str) -> None:
-    if _types.pop(type_id, None) is not None:
-        _changed()
+def declared_in(module: str) -> list[type[NodeType]]:
+    """Classes declared with ``@register`` in ``module`` or its submodules, in declaration order."""
+    prefix = module + "."
+    return [cls for (name, _), cls in _declared.items() if name == module or name.startswith(prefix)]
 
 
-def registered() -> dict[str, type[NodeType]]:
-    """Registered (code) node types by id, sorted. Library graphs are listed by ``describe_all``."""
-    return dict(sorted(_types.items()))
+# ---------------------------------------------------------------- the registry
+
+_generations = itertools.count(1)  # one counter for all registries: a generation names one state of one registry
 
 
-def lookup(type_id: str, graph_dir: Any = None) -> type[NodeType]:
-    """The class for ``type_id``; ``lib.<stem>`` ids are library graphs (beside ``graph_dir`` first).
+class LibrarySource(Protocol):
+    """Where ``lib.<stem>`` types come from: graph files with an interface, used as nodes."""
 
-    Raises GraphError when the type is unknown.
+    def type(self, type_id: str, graph_dir: Path | None, registry: Registry) -> type[NodeType] | None: ...
+
+    def types(self, graph_dir: Path | None, registry: Registry) -> dict[str, type[NodeType]]: ...
+
+
+class Registry:
+    """Node types by id, the library graphs they may use, and what failed to load.
+
+    >>> reg = Registry()
+    >>> "basic.add" in reg
+    False
+    >>> reg.lookup("basic.add")
+    Traceback (most recent call last):
+    ...
+    flowmc.errors.GraphError: unknown node type 'basic.add'
     """
-    cls = _types.get(type_id)
-    if cls is not None:
-        return cls
-    if type_id.startswith("lib."):
-        from flowmc.subgraph import library_type  # core module; imported late to keep this one small
 
-        cls = library_type(type_id, graph_dir)
+    def __init__(self, node_types: Iterable[type[NodeType]] = (), *, library: LibrarySource | None = None) -> None:
+        self._types: dict[str, type[NodeType]] = {}
+        self._origins: dict[str, str] = {}
+        self.library = library
+        self.failures: dict[str, str] = {}  # where (a module, an entry point, a folder) -> what went wrong
+        self._generation = next(_generations)
+        for cls in node_types:
+            self.add(cls)
+
+    @property
+    def generation(self) -> int:
+        """Changes whenever the registry does (and differs between registries): plans cache on it."""
+        return self._generation
+
+    def _changed(self) -> None:
+        self._generation = next(_generations)
+
+    def add(self, cls: type[NodeType], origin: str = "") -> type[NodeType]:
+        """Add a node type (checked as ``@register`` checks it); usable as a class decorator.
+
+        TypeError when another class already has its type id."""
+        if cls not in _checked:
+            _check_declaration(cls)
+            _checked.add(cls)
+        existing = self._types.get(cls.type_id)
+        if existing is not None and existing is not cls and _name(existing) != _name(cls):
+            raise TypeError(f"type_id {cls.type_id!r} of {_name(cls)} is already used by {_name(existing)}")
+        self._types[cls.type_id] = cls
+        self._origins[cls.type_id] = origin or cls.__module__
+        self._changed()
+        return cls
+
+    register = add
+
+    def remove(self, type_id: str) -> None:
+        if self._types.pop(type_id, None) is not None:
+            self._origins.pop(type_id, None)
+            self._changed()
+
+    def copy(self) -> Registry:
+        """An independent registry with the same types and library (tests add their own types to one)."""
+        other = Registry(library=self.library)
+        other._types, other._origins, other.failures = dict(self._types), dict(self._origins), dict(self.failures)
+        return other
+
+    def __contains__(self, type_id: object) -> bool:
+        return type_id in self._types
+
+    def types(self) -> dict[str, type[NodeType]]:
+        """Node types from code, by id, sorted. Library graphs are listed by ``describe_all``."""
+        return dict(sorted(self._types.items()))
+
+    def origin(self, type_id: str) -> str:
+        """Where a type came from: its module, an entry point or a node folder."""
+        return self._origins.get(type_id, "library graph" if type_id.startswith("lib.") else "")
+
+    def lookup(self, type_id: str, graph_dir: Any = None) -> type[NodeType]:
+        """The class for ``type_id``; ``lib.<stem>`` ids are library graphs (beside ``graph_dir`` first).
+
+        Raises GraphError when the type is unknown.
+        """
+        cls = self._types.get(type_id)
         if cls is not None:
             return cls
-    raise GraphError(f"unknown node type {type_id!r}", where=None)
+        if type_id.startswith("lib.") and self.library is not None:
+            found = self.library.type(type_id, Path(graph_dir) if graph_dir is not None else None, self)
+            if found is not None:
+                return found
+        raise GraphError(f"unknown node type {type_id!r}", where=None)
+
+    def unknown_type_hint(self) -> str:
+        """What to add to an unknown-type message: the node sources that failed to load."""
+        if not self.failures:
+            return ""
+        return " (node modules that failed to load: " + "; ".join(f"{m}: {e}" for m, e in self.failures.items()) + ")"
+
+    def describe(self, cls_or_id: type[NodeType] | str, params: dict[str, Any] | None = None,
+                 graph_dir: Any = None) -> dict[str, Any]:
+        """``describe`` for a type id or class."""
+        cls = self.lookup(cls_or_id, graph_dir) if isinstance(cls_or_id, str) else cls_or_id
+        return describe(cls, params)
+
+    def describe_all(self, graph_dir: Any = None) -> list[dict[str, Any]]:
+        """Every type, then the library graphs (``lib.*``) seen from ``graph_dir``, sorted by type id."""
+        found: dict[str, type[NodeType]] = dict(self._types)
+        if self.library is not None:
+            found.update(self.library.types(Path(graph_dir) if graph_dir is not None else None, self))
+        return [describe(found[t]) for t in sorted(found)]
 
 
-@contextlib.contextmanager
-def scoped() -> Iterator[None]:
-    """Restore the registry on exit: tests register throw-away types inside."""
-    saved = dict(_types)
-    try:
-        yield
-    finally:
-        _types.clear()
-        _types.update(saved)
-        _changed()
+def _name(cls: type) -> str:
+    return f"{cls.__module__}.{cls.__qualname__}"
 
 
 # ---------------------------------------------------------------- describe
@@ -330,13 +365,12 @@ def _port_dict(port: In | Out) -> dict[str, Any]:
     }
 
 
-def describe(cls_or_id: type[NodeType] | str, params: dict[str, Any] | None = None, graph_dir: Any = None) -> dict[str, Any]:
+def describe(cls: type[NodeType], params: dict[str, Any] | None = None) -> dict[str, Any]:
     """A JSON-able description of a node type: ports, param schema, text. For the CLI and the editor.
 
     ``params`` (raw dict) matters only for types whose ports depend on params; when they are
     invalid the declared (static) ports are described.
     """
-    cls = lookup(cls_or_id, graph_dir) if isinstance(cls_or_id, str) else cls_or_id
     ports = Ports(cls.inputs, cls.outputs)
     if cls.dynamic_ports():
         with contextlib.suppress(Exception):
@@ -354,22 +388,3 @@ def describe(cls_or_id: type[NodeType] | str, params: dict[str, Any] | None = No
         "params_schema": cls.Params.model_json_schema(),
         "dynamic_ports": cls.dynamic_ports(),
     }
-
-
-def describe_all(graph_dir: Any = None) -> list[dict[str, Any]]:
-    """Every registered type, then the library graphs (``lib.*``), sorted by type id."""
-    from flowmc.subgraph import library_types
-
-    found = dict(_types)
-    found.update(library_types(graph_dir))
-    return [describe(found[t]) for t in sorted(found)]
-
-
-def check_ports(owner: str, ports: Ports) -> None:
-    """Raise TypeError if ``ports`` (from an overridden ``ports(params)``) are malformed."""
-
-    def fail(msg: str) -> None:
-        raise TypeError(f"{owner}: {msg}")
-
-    _check_ports(fail, ports.inputs, ports.outputs)
-

@@ -1,20 +1,11 @@
-"""The one motion-card interface, and ``open_device`` that picks a backend from a spec string.
-
-Specs: ``"sim"`` (the simulated 6050 card, the default), ``"grbl:<serial port>"``, ``"grbl-sim"`` (the
-GRBL streamer against the protocol simulator) and ``"linuxcnc"``
-(or ``"linuxcnc:<argument>"``). Backends are factories in a small table; ``register_backend`` adds
-one. The LinuxCNC backend lives in ``flowmc.devices.linuxcnc.backend`` and is imported only when a
-``linuxcnc`` spec is opened; that module provides ``open_card(argument, machine, **options)``
-returning a ``MotionCard``.
+"""The one motion-card interface every backend implements (``flowmc.devices.backends`` opens them).
 
 Every operation that moves or sets something returns the ``DeviceLog`` of what the device did.
 """
 
 from __future__ import annotations
 
-import importlib
 from abc import ABC, abstractmethod
-from typing import Callable
 
 import numpy as np
 
@@ -25,7 +16,7 @@ from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["MotionCard", "open_device", "check_spec", "register_backend", "known_devices", "HOME_METHODS"]
+__all__ = ["MotionCard", "HOME_METHODS"]
 
 #: ``switch``: the thesis's procedure (to the home switch at V1, off it at V2, a set distance more,
 #: zero). ``midpoint``: the XY plotter report's (find both limits, zero halfway between them).
@@ -115,82 +106,3 @@ class MotionCard(ABC):
         pos = self.position()
         return DeviceLog(self.spec, self.machine.names, 0.0, [0.0], np.zeros((1, len(pos)), dtype=np.int32),
                          pos[None, :], state=self.status())
-
-
-Factory = Callable[..., MotionCard]  # factory(argument, machine, **options)
-
-
-def _open_sim(argument: str, machine: Machine, **options) -> MotionCard:
-    from flowmc.devices.sim import SimCard
-
-    if argument:
-        raise DeviceError(f"'sim' takes no argument, got 'sim:{argument}'", where="device")
-    return SimCard(machine, **options)
-
-
-def _open_grbl(argument: str, machine: Machine, **options) -> MotionCard:
-    from flowmc.devices.grbl import GrblCard
-
-    if not argument:
-        raise DeviceError("say which serial port: 'grbl:/dev/ttyUSB0'", where="device")
-    return GrblCard(argument, machine, **options)
-
-
-_BACKENDS: dict[str, Factory] = {"sim": _open_sim, "grbl": _open_grbl}
-_LAZY_BACKENDS: dict[str, str] = {"linuxcnc": "flowmc.devices.linuxcnc.backend",
-                                   "grbl-sim": "flowmc.devices.grbl_sim_card"}
-_SPEC_HELP = {"sim": "sim", "grbl": "grbl:<serial port>", "grbl-sim": "grbl-sim", "linuxcnc": "linuxcnc"}
-
-
-def register_backend(name: str, factory: Factory, help: str | None = None) -> None:
-    """Add (or replace) a backend: ``factory(argument, machine, **options) -> MotionCard``."""
-    _BACKENDS[name] = factory
-    _SPEC_HELP[name] = help or name
-
-
-def known_devices() -> list[str]:
-    """Device specs ``open_device`` understands, as shown in error messages and the editor."""
-    return [_SPEC_HELP[k] for k in sorted(set(_BACKENDS) | set(_LAZY_BACKENDS))]
-
-
-def _backend(name: str) -> Factory:
-    """The factory for a known backend name, importing a lazy backend on first use."""
-    if name in _BACKENDS:
-        return _BACKENDS[name]
-    module_name = _LAZY_BACKENDS[name]
-    try:
-        module = importlib.import_module(module_name)
-    except ModuleNotFoundError as exc:
-        if exc.name and module_name.startswith(exc.name):
-            raise DeviceError(f"the {name} backend is not installed ({module_name} is missing)",
-                              where="device") from None
-        raise DeviceError(f"the {name} backend cannot load: {exc}", where="device") from exc
-    factory = getattr(module, "open_card", None)
-    if factory is None:
-        raise DeviceError(f"{module_name} has no open_card(argument, machine, **options)", where="device")
-    return factory
-
-
-def check_spec(spec: str) -> None:
-    """DeviceError unless ``spec`` names a known backend (nothing is opened or imported)."""
-    name = spec.strip().partition(":")[0] if isinstance(spec, str) else ""
-    if name not in _BACKENDS and name not in _LAZY_BACKENDS:
-        raise DeviceError(f"unknown device {spec!r}; known: {', '.join(known_devices())}", where="device")
-
-
-def open_device(spec: str = "sim", machine: Machine | None = None, **options) -> MotionCard:
-    """Open and connect the device named by ``spec``; DeviceError for an unknown spec (listing the known ones).
-
-    Example
-    -------
-    >>> from flowmc.motion.machine import Machine
-    >>> with open_device("sim", Machine()) as card:
-    ...     card.position().tolist()
-    [0.0, 0.0, 0.0]
-    """
-    check_spec(spec)
-    name, _, argument = spec.strip().partition(":")
-    factory = _backend(name)
-    card = factory(argument, machine if machine is not None else Machine(), **options)
-    card.connect()
-    return card

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 from flowmc.devices.grbl import GrblCard
 from flowmc.devices.grbl_sim import GrblSimulator
-from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 
-__all__ = ["SimulatedGrblCard", "open_card"]
+__all__ = ["SimulatedGrblCard"]
 
 
 class SimulatedGrblCard(GrblCard):
@@ -31,9 +30,3 @@ class SimulatedGrblCard(GrblCard):
             super().close()
         finally:
             self.simulator.stop()
-
-
-def open_card(argument: str, machine: Machine, **options) -> SimulatedGrblCard:
-    if argument:
-        raise DeviceError(f"'grbl-sim' takes no argument, got 'grbl-sim:{argument}'", where="device")
-    return SimulatedGrblCard(machine, **options)

@@ -10,7 +10,8 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from flowmc.devices.card import MotionCard, known_devices, open_device
+from flowmc.devices.backends import known_devices, open_device
+from flowmc.devices.card import MotionCard
 from flowmc.motion.machine import Machine
 
 __all__ = ["DeviceSession"]

@@ -52,7 +52,7 @@ from pathlib import Path as FsPath
 
 import numpy as np
 
-from flowmc.errors import GcodeError
+from flowmc.errors import GcodeError, printable
 from flowmc.motion.gcode_write import format_mm
 from flowmc.motion.path import _RADIUS_TOL, PLANES, Arc, Dwell, Line, Path, Segment
 
@@ -217,9 +217,7 @@ class _Program:
 
     def error(self, line: int, message: str) -> GcodeError:
         raw = self.text.split("\n")
-        text = raw[line].strip() if 0 <= line < len(raw) else ""
-        if len(text) > 60:
-            text = text[:57] + "..."
+        text = printable(raw[line].strip(), 60) if 0 <= line < len(raw) else ""
         return GcodeError(f"{message} (in: {text})" if text else message, where=self.where(line))
 
 

@@ -15,7 +15,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from flowmc.devices.card import check_spec, open_device
+from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions, check_spec, open_device
 from flowmc.devices.log import DeviceLog
 from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CARD_6050
@@ -64,20 +64,14 @@ def _machine_for(machine: Machine | None, motion=None) -> Machine:
 
 
 def _open(params: _DeviceParams, machine: Machine, after: DeviceLog | None):
-    """Open the device; the simulated card starts from ``after``'s end state when that came from one."""
-    options = {}
-    name = params.device.partition(":")[0]
-    if name == "sim":
-        options = {"closed_loop": params.closed_loop, "estop_input": params.estop_input or None,
-                   "analog": params.analog}
-        if isinstance(params, CardOutputParams):
-            options["pen_output"] = params.pen_output or None
-        if after is not None and after.state.get("device") == "sim":
-            options["state"] = after.state
-    elif name in ("grbl", "grbl-sim") and isinstance(params, CardOutputParams):
-        pen = (params.grbl_pen_down.strip(), params.grbl_pen_up.strip())
-        options["pen"] = pen if any(pen) else None
-    return open_device(params.device, machine, **options)
+    """Open the device; a card carries on from ``after``'s end state when that came from one of its kind."""
+    pen = isinstance(params, CardOutputParams)
+    options = DeviceOptions(
+        sim=SimOptions(closed_loop=params.closed_loop, estop_input=params.estop_input or None, analog=params.analog,
+                       pen_output=(params.pen_output or None) if pen else None),
+        grbl=GrblOptions(params.grbl_pen_down, params.grbl_pen_up) if pen else GrblOptions(),
+        resume=after.state if after is not None else None)
+    return open_device(params.device, machine, options)
 
 
 def _report(ctx, log: DeviceLog) -> None:

@@ -2,7 +2,7 @@
 
 Public API (the CLI and the editor use only this)::
 
-    rt = Runtime()
+    rt = Runtime(registry)          # flowmc.Runtime() gives the default registry
     plan = rt.plan(graph)          # validated + ordered, reused per graph revision
     plan.issues, plan.order, plan.generations, plan.ports("n3")
     unsubscribe = rt.subscribe(lambda event: ...)
@@ -10,9 +10,10 @@ Public API (the CLI and the editor use only this)::
 """
 
 from flowmc.graph import Issue
+from flowmc.runtime.binding import BindContext, Binding, GraphBinder
 from flowmc.runtime.context import NodeContext, Site, resolve_inside
 from flowmc.runtime.events import EVENT_KINDS, Event, EventBus
-from flowmc.runtime.executor import NodeResult, RunResult, Runtime, run, summarize, validate, value_matches
+from flowmc.runtime.executor import NodeResult, RunResult, Runtime, summarize, value_matches
 from flowmc.runtime.schedule import Plan
 
 __all__ = [
@@ -27,8 +28,9 @@ __all__ = [
     "NodeContext",
     "Site",
     "resolve_inside",
-    "run",
-    "validate",
+    "Binding",
+    "BindContext",
+    "GraphBinder",
     "summarize",
     "value_matches",
 ]

@@ -11,21 +11,33 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from flowmc.errors import GraphError
+from flowmc.errors import GraphError, printable
 
 __all__ = ["Site", "NodeContext", "resolve_inside"]
+
+NAME_MAX = 255  # bytes in one file or folder name (Linux, macOS and Windows file systems)
 
 
 def resolve_inside(root: Path, base: Path, rel: str, where: str | None = None) -> Path:
     """``base / rel`` with symlinks resolved; GraphError unless it stays under ``root``."""
     if not isinstance(rel, str) or not rel.strip():
         raise GraphError("empty file name", where=where)
+    shown = f"'{printable(rel, 120)}'"
+    if "\x00" in rel or printable(rel) != rel:
+        raise GraphError(f"{shown}: a file name may not hold control characters (NUL, escapes, lone surrogates)",
+                         where=where)
+    if any(len(os.fsencode(part)) > NAME_MAX for part in Path(rel).parts):
+        raise GraphError(f"{shown}: a file or folder name longer than {NAME_MAX} bytes", where=where)
     if os.path.isabs(rel) or rel.startswith("~"):
-        raise GraphError(f"{rel!r}: absolute paths are refused; use a path relative to the graph's folder", where=where)
-    target = (base / rel).resolve()
-    root_resolved = root.resolve()
+        raise GraphError(f"{shown}: absolute paths are refused; use a path relative to the graph's folder", where=where)
+    try:
+        target = (base / rel).resolve()
+        root_resolved = root.resolve()
+    except (OSError, ValueError) as exc:  # a name too long for the file system, a symlink loop
+        raise GraphError(f"{shown}: not a usable file name ({getattr(exc, 'strerror', None) or exc})",
+                         where=where) from None
     if not target.is_relative_to(root_resolved):
-        raise GraphError(f"{rel!r} leaves the graph's folder {root_resolved}", where=where)
+        raise GraphError(f"{shown} leaves the graph's folder {root_resolved}", where=where)
     return target
 
 

@@ -16,17 +16,17 @@ from typing import Any, Callable
 import numpy as np
 from pydantic import ValidationError
 
-from flowmc import registry
 from flowmc.digest import Undigestable, digest
 from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, Issue, load
+from flowmc.registry import Registry
 from flowmc.runtime.cache import CacheEntry, NodeCache, signature
 from flowmc.runtime.context import NodeContext, Site
 from flowmc.runtime.events import Event, EventBus, Listener
 from flowmc.runtime.schedule import Plan, make_plan
 from flowmc.runtime.validate import BoundNode, value_matches
 
-__all__ = ["Runtime", "RunResult", "NodeResult", "run", "validate", "value_matches"]
+__all__ = ["Runtime", "RunResult", "NodeResult", "summarize", "value_matches"]
 
 _MAX_PLANS = 16
 
@@ -102,12 +102,15 @@ def summarize(value: Any) -> Any:
 
 
 class Runtime:
-    """Owns an output cache, an event bus and sub-graph child runtimes.
+    """Runs graphs with the node types of ``registry``; owns an output cache, an event bus and
+    the child runtimes of nodes that hold graphs (sub-graphs).
 
     Runs from several threads (editor callbacks) take turns; planning has its own lock, so a
-    graph can be validated while another runs. Listeners run on the thread that runs."""
+    graph can be validated while another runs. Listeners run on the thread that runs.
+    ``flowmc.Runtime()`` is this class with the default registry (``flowmc.plugins``)."""
 
-    def __init__(self) -> None:
+    def __init__(self, registry: Registry) -> None:
+        self.registry = registry
         self._plan_lock = threading.RLock()
         self._run_lock = threading.RLock()
         self.events = EventBus()
@@ -127,7 +130,7 @@ class Runtime:
     def child(self, key: str) -> "Runtime":
         runtime = self._children.get(key)
         if runtime is None:
-            runtime = self._children[key] = Runtime()
+            runtime = self._children[key] = Runtime(self.registry)
         return runtime
 
     # ------------------------------------------------------------ planning
@@ -135,18 +138,15 @@ class Runtime:
     def plan(self, graph: Graph, *, base_dir: str | os.PathLike | None = None) -> Plan:
         """Validate and schedule; reused while the graph (positions aside), the registry and
         the sub-graph files it reads are unchanged. Check ``plan.issues``."""
-        from flowmc.nodes import load_all
-
-        load_all()
         site = Site.for_graph(Path(base_dir) if base_dir is not None else graph.base_dir, graph.path)
-        key = (graph.fingerprint_json(), site, registry.generation())
+        key = (graph.fingerprint_json(), site, self.registry.generation)
         with self._plan_lock:
             plan = self._plans.get(key)
             if plan is not None and plan.deps_unchanged():
                 return plan
             frozen = graph.model_copy(deep=True)  # the plan must not change when the caller edits the graph
             frozen.path = graph.path
-            plan = make_plan(frozen, site)
+            plan = make_plan(frozen, site, self.registry)
             if plan.ok:  # invalid plans are redone: a missing file or library graph may appear
                 if len(self._plans) >= _MAX_PLANS:
                     self._plans.pop(next(iter(self._plans)))
@@ -341,19 +341,3 @@ def _failure_message(node_id: str, exc: BaseException) -> str:
         text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
     prefix = f"node {node_id!r}"
     return text if text.startswith(prefix) else f"{prefix}: {text}"
-
-
-# ---------------------------------------------------------------- module-level API
-
-def run(graph: Graph | str | os.PathLike, inputs: dict[str, Any] | None = None, runtime: Runtime | None = None, *,
-        base_dir: str | os.PathLike | None = None) -> RunResult:
-    """Run ``graph`` (a Graph or a file path) once; pass a ``runtime`` to keep its cache between runs."""
-    return (runtime or Runtime()).run(graph, inputs, base_dir=base_dir)
-
-
-def validate(graph: Graph | str | os.PathLike, *, base_dir: str | os.PathLike | None = None) -> list[Issue]:
-    """Every problem in ``graph`` (empty list: it can run). Nothing runs."""
-    if isinstance(graph, (str, os.PathLike)):
-        graph = load(graph)
-    return Runtime().validate(graph, base_dir=base_dir)
-

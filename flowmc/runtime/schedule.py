@@ -14,7 +14,8 @@ from typing import Any
 import networkx as nx
 
 from flowmc.graph import Graph, Issue
-from flowmc.registry import In, Out
+from flowmc.ports import In, Out
+from flowmc.registry import Registry
 from flowmc.runtime.context import Site
 from flowmc.runtime.validate import BoundNode, check_graph
 
@@ -27,6 +28,7 @@ class Plan:
 
     graph: Graph
     site: Site
+    registry: Registry
     issues: list[Issue]
     nodes: dict[str, BoundNode]
     digraph: nx.DiGraph
@@ -84,8 +86,9 @@ def find_cycles(digraph: nx.DiGraph) -> list[list[str]]:
     return sorted(cycles, key=lambda ids: ids[0])
 
 
-def make_plan(graph: Graph, site: Site) -> Plan:
-    checked = check_graph(graph, site)
+def make_plan(graph: Graph, site: Site, registry: Registry) -> Plan:
+    """Validate ``graph`` against ``registry`` and order it; graphs that nodes hold are planned the same way."""
+    checked = check_graph(graph, site, registry, lambda inner, inner_site: make_plan(inner, inner_site, registry))
     digraph = nx.DiGraph()
     digraph.add_nodes_from(checked.node_ids)
     digraph.add_edges_from(sorted(set(checked.edges)))
@@ -97,5 +100,5 @@ def make_plan(graph: Graph, site: Site) -> Plan:
         for ids in find_cycles(digraph):
             text = " -> ".join(ids + ids[:1])
             issues.append(Issue("cycle", ("nodes", ids[0]), f"node {ids[0]!r}: cycle {text}"))
-    return Plan(graph, site, issues, checked.nodes, digraph, generations,
+    return Plan(graph, site, registry, issues, checked.nodes, digraph, generations,
                 checked.iface_inputs, checked.iface_outputs, checked.deps)

@@ -15,15 +15,16 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import Graph, Issue, Node, split_ref
-from flowmc.registry import In, NodeType, Out
+from flowmc.ports import In, Out, Ports
+from flowmc.registry import NodeType, Registry, check_ports
+from flowmc.runtime.binding import BindContext, binder_of
 from flowmc.runtime.cache import static_key
 from flowmc.runtime.context import Site
 
@@ -53,7 +54,7 @@ class BoundNode:
     outputs: dict[str, Out]
     pure: bool
     static: bytes = b""
-    binding: Any = None  # sub-graph types: the inner plan
+    binding: Any = None  # types that hold a graph (runtime.binding): the inner plan
     sources: dict[str, tuple[str, str]] = field(default_factory=dict)  # input -> (node, output)
     fed: dict[str, str] = field(default_factory=dict)  # input -> interface input name
 
@@ -69,14 +70,15 @@ class Checked:
     deps: dict[Path, tuple[int, int]]
 
 
-def check_graph(graph: Graph, site: Site) -> Checked:
+def check_graph(graph: Graph, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any]) -> Checked:
+    """Every problem of ``graph`` with its node types from ``registry``; ``plan`` plans held graphs."""
     issues: list[Issue] = []
     nodes = _unique_nodes(graph, issues)
     targets = _targets_by_node(graph)
     deps: dict[Path, tuple[int, int]] = {}
     bound: dict[str, BoundNode] = {}
     for node in nodes.values():
-        b = _bind_node(node, site, targets.get(node.id, set()), issues, deps)
+        b = _bind_node(node, site, registry, plan, targets.get(node.id, set()), issues, deps)
         if b is not None:
             bound[node.id] = b
     edges, fed_by = _check_wires(graph, nodes, bound, issues)
@@ -111,45 +113,37 @@ def _targets_by_node(graph: Graph) -> dict[str, set[str]]:
 
 # ---------------------------------------------------------------- nodes
 
-def _unknown_type_message(node: Node) -> str:
-    from flowmc.nodes import load_failures
-
-    msg = f"node {node.id!r}: unknown node type {node.type!r}"
-    failed = load_failures()
-    if failed:
-        msg += " (node modules that failed to load: " + "; ".join(f"{m}: {e}" for m, e in failed.items()) + ")"
-    return msg
-
-
-def _bind_node(node: Node, site: Site, fed_ports: set[str], issues: list[Issue], deps: dict) -> BoundNode | None:
+def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any],
+               fed_ports: set[str], issues: list[Issue], deps: dict) -> BoundNode | None:
     try:
         cls = registry.lookup(node.type, site.graph_dir)
     except GraphError:
-        issues.append(Issue("unknown-node-type", ("nodes", node.id, "type"), _unknown_type_message(node)))
+        message = f"node {node.id!r}: unknown node type {node.type!r}{registry.unknown_type_hint()}"
+        issues.append(Issue("unknown-node-type", ("nodes", node.id, "type"), message))
         return None
     params, param_issues = _validate_params(node, cls, fed_ports)
     issues.extend(param_issues)
-    binder = getattr(cls, "bind_site", None)
+    binder = binder_of(cls)
     if (binder is not None or cls.dynamic_ports()) and params is None:
         return None  # ports depend on params we could not read
     binding, pure, extra = None, cls.pure, ""
     if binder is not None:
         try:
-            bound_site = binder(params, site, node.id)
+            bound = binder.bind_graph(params, BindContext(site, node.id, plan))
         except GraphError as exc:
             issues.extend(exc.issues or [Issue("subgraph", ("nodes", node.id, "params"), f"node {node.id!r}: {exc}")])
             return None
-        ports, pure, extra, binding = bound_site.ports, bound_site.pure, bound_site.key, bound_site.plan
-        deps.update(bound_site.deps)
+        ports, pure, extra, binding = bound.ports, bound.pure, bound.key, bound.plan
+        deps.update(bound.deps)
     elif cls.dynamic_ports():
         try:
             ports = cls.ports(params)
-            registry.check_ports(f"node {node.id!r} ({node.type})", ports)
+            check_ports(f"node {node.id!r} ({node.type})", ports)
         except Exception as exc:
             issues.append(Issue("invalid-param", ("nodes", node.id, "params"), f"node {node.id!r}: {exc}"))
             return None
     else:
-        ports = registry.Ports(cls.inputs, cls.outputs)
+        ports = Ports(cls.inputs, cls.outputs)
     inputs = {p.name: p for p in ports.inputs + cls.param_ports()}
     outputs = {p.name: p for p in ports.outputs}
     params_json = params.model_dump_json() if params is not None else json.dumps(node.params, sort_keys=True, default=str)

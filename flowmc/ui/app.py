@@ -11,6 +11,7 @@ thread pool.
 
 from __future__ import annotations
 
+import socket
 import sys
 import time
 from pathlib import Path
@@ -24,10 +25,12 @@ from flowmc.ui import viser_internals
 from flowmc.ui.canvas import Canvas
 from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
+from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
 from flowmc.ui.panels import PalettePanel, ProblemsPanel, free_spot
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
+from flowmc.ui.text import escape_md, md, plain
 
 __all__ = ["Editor", "serve_main"]
 
@@ -42,16 +45,17 @@ class Editor:
 
     def __init__(self, path: str | Path | None = None, *, host: str = "127.0.0.1", port: int = 8080,
                  folder: str | Path | None = None, extensions: bool = True, devices: DeviceAccess | None = None,
-                 jobs: JobAccess | None = None):
+                 jobs: JobAccess | None = None, guard: Guard | None = None):
         graph = load(path) if path is not None else None
         self.session = EditorSession(graph, folder=folder, devices=devices, jobs=jobs)
         self.lock, self.state = self.session.lock, self.session.state
         self.session.state.plan()  # bind the graph once before the panels look at node types
         self.host = host
+        self.guard = guard or Guard(host)  # this launch's token; only the editor's own page may connect
         self.messages: list[tuple[str, str]] = []
         self.pending_modal: Any = None
         self._titles: dict[int, str] = {}
-        self.server = viser.ViserServer(host=host, port=port, label="flowmc", verbose=False)
+        self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
         self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
         self.server.gui.main_panel.dock_right()
@@ -71,8 +75,9 @@ class Editor:
 
     @property
     def url(self) -> str:
+        """The address to open, with this launch's secret token (without it the server refuses)."""
         host = "127.0.0.1" if self.host in ("0.0.0.0", "", "::") else self.host
-        return f"http://{host}:{self.server.get_port()}"
+        return self.guard.url(host, self.server.get_port())
 
     # ------------------------------------------------------------------ layout
     def _build_gui(self) -> None:
@@ -112,10 +117,10 @@ class Editor:
         """Tell the user: the line under the Run button, and a notification in the browser."""
         self.messages.append((kind, text))
         del self.messages[:-200]
-        self.status_line.content = ("⚠ " if kind == "error" else "") + text
+        self.status_line.content = ("⚠ " if kind == "error" else "") + escape_md(text)
         title = "Problem" if kind == "error" else "flowmc"
         for target in [client] if client is not None else list(self.server.get_clients().values()):
-            target.add_notification(title, text, color="red" if kind == "error" else "blue",
+            target.add_notification(title, plain(text), color="red" if kind == "error" else "blue",
                                     auto_close_seconds=8.0 if kind == "error" else 3.0)
 
     def _on_state(self, kind: str) -> None:
@@ -158,8 +163,8 @@ class Editor:
         name = state.path.name if state.path is not None else state.suggested_name + " (not saved)"
         mark = " ●" if state.dirty else ""
         opened_from = " ← ".join(reversed(state.parents))
-        self.header.content = f"### {name}{mark}" + (f"\nopened from {opened_from}" if opened_from else "")
-        title = f"{'● ' if mark else ''}{name} — flowmc"
+        self.header.content = md("### {}{}", name, mark) + (md("\nopened from {}", opened_from) if opened_from else "")
+        title = plain(f"{'● ' if mark else ''}{name} — flowmc", 200)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             if self._titles.get(client.client_id) != title:
                 self._titles[client.client_id] = title
@@ -225,7 +230,7 @@ class Editor:
                 self.problems.show(request.issues, {})
                 self.notify("error", request.message)
                 return None
-            self.status_line.content = "running…" if source == "run" else f"running ({source})…"
+            self.status_line.content = "running…" if source == "run" else md("running ({})…", source)
             return request
 
     def wait(self, timeout: float = 60.0) -> Any:
@@ -241,7 +246,7 @@ class Editor:
             errors = self.session.run_errors()
             self.problems.show(self.state.issues(), errors)
             if request.source != "run":
-                self.status_line.content = f"{request.source}: " + ("done" if result.ok else "a node failed")
+                self.status_line.content = md("{}: {}", request.source, "done" if result.ok else "a node failed")
             elif result.ok:
                 self.notify("info", f"run done in {request.seconds:.2f} s: {len(result.executed)} ran, {len(result.cached)} cached")
             else:
@@ -275,10 +280,13 @@ def serve_main(args: Any, *, devices: DeviceAccess | None = None, jobs: JobAcces
     The command line hands in the device session (and job runner) the editor shares with its panels."""
     host, port = getattr(args, "host", "127.0.0.1"), getattr(args, "port", 8080)
     file = getattr(args, "file", None)
-    if host not in ("127.0.0.1", "localhost", "::1"):
+    if not is_loopback(host):
         print(NETWORK_WARNING.format(host=host), file=sys.stderr)
     editor = Editor(file, host=host, port=port, folder=None if file else Path.cwd(), devices=devices, jobs=jobs)
     print(f"flowmc editor: {editor.url}" + (f"  ({file})" if file else ""), flush=True)
+    if not is_loopback(host):
+        name = socket.gethostname() if host in ("0.0.0.0", "::", "") else host
+        print(f"  from other machines: {editor.guard.url(name, editor.server.get_port())}", flush=True)
     try:
         while True:
             time.sleep(3600)

@@ -15,7 +15,6 @@ from typing import Any, Callable
 import numpy as np
 import viser
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
 from flowmc.ui import canvas_draw as draw
@@ -86,7 +85,7 @@ class Canvas:
         """Redraw from the state: batches are resent whole, labels only where their text or place changed."""
         with self.lock:
             state, plan = self.state, self.state.plan()
-            self.boxes = [layout.node_box(n.id, n.pos, node_ports(n, state.base_dir, plan)) for n in state.graph.nodes]
+            self.boxes = [layout.node_box(n.id, n.pos, node_ports(n, state.runtime.registry, state.base_dir, plan)) for n in state.graph.nodes]
             by_id = {b.node_id: b for b in self.boxes}
             self.curves, types = {}, {}
             for w in state.graph.wires:
@@ -182,7 +181,7 @@ class Canvas:
         if node.type == "subgraph":
             return str(node.params.get("file", "sub-graph"))
         try:
-            return registry.lookup(node.type, self.state.base_dir).title
+            return self.state.runtime.registry.lookup(node.type, self.state.base_dir).title
         except GraphError:
             return f"{node.type} (unknown type)"
 

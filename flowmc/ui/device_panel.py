@@ -18,6 +18,7 @@ import viser
 from flowmc.errors import FlowmcError
 from flowmc.motion.machine import Machine
 from flowmc.ui.session import DeviceAccess
+from flowmc.ui.text import md
 
 __all__ = ["DevicePanel", "N_OUTPUT_TOGGLES"]
 
@@ -132,11 +133,11 @@ class DevicePanel:
             try:
                 out = call(self.card)
             except Exception as exc:  # noqa: BLE001 - any device failure is shown at the control, not raised
-                message.content = f"**{what} failed:** {_message(exc)}"
+                message.content = md("**{} failed:** {}", what, _message(exc))
                 return None
         if hasattr(out, "outcome"):  # a DeviceLog
             events = "; ".join(e.message for e in out.events if e.message)
-            message.content = f"{what}: {out.outcome}" + (f" ({events})" if events else "")
+            message.content = md("{}: {}", what, out.outcome) + (md(" ({})", events) if events else "")
             if self.on_log is not None:
                 self.on_log(out)
         self.refresh()
@@ -151,9 +152,9 @@ class DevicePanel:
             with self._lock:
                 card = self.devices.connect(spec, self._machine(), **self.device_options.get(name, {}))
         except Exception as exc:  # noqa: BLE001 - shown at the Device field
-            self.connection_msg.content = f"**Cannot connect:** {_message(exc)}"
+            self.connection_msg.content = md("**Cannot connect:** {}", _message(exc))
             return False
-        self.connection_msg.content = f"Connected to **{spec}** (axes {', '.join(card.machine.names)})."
+        self.connection_msg.content = md("Connected to **{}** (axes {}).", spec, ", ".join(card.machine.names))
         self._build_jog(card.machine.names)
         self._set_enabled(True)
         self.refresh()
@@ -165,7 +166,7 @@ class DevicePanel:
             try:
                 self.devices.disconnect()
             except Exception as exc:  # noqa: BLE001
-                self.connection_msg.content = f"Closed with an error: {_message(exc)}"
+                self.connection_msg.content = md("Closed with an error: {}", _message(exc))
             else:
                 if was_open:
                     self.connection_msg.content = "Not connected."
@@ -234,12 +235,12 @@ class DevicePanel:
             pos, inputs, status = card.position(), card.read_inputs(), card.status()
             switch = card.input_names()
         names = card.machine.names
-        lines = [" · ".join(f"**{a}** {p:.4f}" for a, p in zip(names, pos)) + " mm"]
+        lines = [" · ".join(md("**{}** {:.4f}", a, p) for a, p in zip(names, pos)) + " mm"]
         lines.append(f"E-stop: {'**LATCHED**' if status.get('estop') else 'clear'}"
-                     + (f" · homed: {', '.join(a for a, h in zip(names, status['homed']) if h) or 'none'}"
+                     + (md(" · homed: {}", ", ".join(a for a, h in zip(names, status["homed"]) if h) or "none")
                         if "homed" in status else ""))
         closed = [switch.get(ch, f"in {ch}") for ch, on in sorted(inputs.items()) if on]
-        lines.append("Inputs closed: " + (", ".join(closed) if closed else "none"))
+        lines.append(md("Inputs closed: {}", ", ".join(closed) if closed else "none"))
         if "outputs" in status:
             lines.append("Outputs on: " + (", ".join(f"DO{ch}" for ch in status["outputs"]) or "none"))
         if "pwm_hz_duty" in status:
@@ -252,7 +253,7 @@ class DevicePanel:
         try:
             text = self.status_text()
         except Exception as exc:  # noqa: BLE001 - a port that went away is shown, not raised
-            text = f"**Status failed:** {_message(exc)}"
+            text = md("**Status failed:** {}", _message(exc))
         if text != self.status.content:
             self.status.content = text
 

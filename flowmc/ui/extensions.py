@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from flowmc.errors import FlowmcError
 from flowmc.ui import view3d_data
 from flowmc.ui.session import RunRequest
+from flowmc.ui.text import md
 
 if TYPE_CHECKING:
     from flowmc.ui.app import Editor
@@ -50,7 +51,7 @@ class Extensions:
         self.failures[what] = text
         if container is not None:
             with container:
-                self.editor.server.gui.add_markdown(f"The {what} is not available: {text}")
+                self.editor.server.gui.add_markdown(md("The {} is not available: {}", what, text))
 
     def _on_result(self, request: RunRequest) -> None:
         if self.front is not None and request.source == "front panel":
@@ -70,7 +71,7 @@ class Extensions:
         try:
             from flowmc.ui.view3d import ToolpathView, embed_html
 
-            self.view = ToolpathView(host=self.editor.host, port=0)
+            self.view = ToolpathView(host=self.editor.host, port=0, guard=self.editor.guard)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a 3D view
             self._failed("3D view", exc)
             return
@@ -100,7 +101,8 @@ class Extensions:
 
             with self.front_tab:
                 self.front = FrontPanel(gui, self.session.state.graph,
-                                        lambda values: self.editor.run(values, source="front panel"))
+                                        lambda values: self.editor.run(values, source="front panel"),
+                                        self.session.runtime.registry)
         except Exception as exc:  # noqa: BLE001 - the editor runs without a front panel
             self._failed("front panel", exc, self.front_tab)
 

@@ -33,9 +33,9 @@ def node_file(node: Node, base_dir: Path) -> Path | None:
             return None
         return resolve_inside(base_dir, base_dir, file, where=f"node {node.id!r}")
     if node.type.startswith("lib."):
-        from flowmc import registry
+        from flowmc.plugins import default_registry
 
-        return getattr(registry.lookup(node.type, base_dir), "file_path", None)
+        return getattr(default_registry().lookup(node.type, base_dir), "file_path", None)
     return None
 
 

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, dumps
 from flowmc.runtime import resolve_inside
+from flowmc.ui.text import md
 
 if TYPE_CHECKING:
     from flowmc.ui.session import PanelHost
@@ -62,7 +63,7 @@ class FilesPanel:
         if current in files:
             self.open_choice.value = current
         self.save_as_name.value = current or state.suggested_name
-        self.where.content = f"Folder: `{state.folder}`"
+        self.where.content = md("Folder: {}", state.folder)
 
     def _inside(self, name: str) -> Path:
         name = name.strip()

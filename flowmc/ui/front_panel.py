@@ -13,8 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from flowmc import registry
 from flowmc.errors import FlowmcError
+from flowmc.ui.text import md, plain
 
 __all__ = ["ControlSpec", "control_specs", "FrontPanel"]
 
@@ -54,7 +54,7 @@ class ControlSpec:
         return None
 
 
-def _param_schema(graph: Any, ref: str) -> tuple[dict, Any]:
+def _param_schema(graph: Any, ref: str, registry: Any) -> tuple[dict, Any]:
     """The JSON schema of the param a 'node.port' target names (empty for data inputs) and its current value."""
     node_id, _, port = ref.partition(".")
     with contextlib.suppress(FlowmcError, KeyError, LookupError):
@@ -75,9 +75,9 @@ def _nice_step(span: float) -> float:
     return next(m * base for m in (1.0, 2.0, 5.0, 10.0) if m * base >= raw)
 
 
-def _spec(item: Any, graph: Any) -> ControlSpec:
+def _spec(item: Any, graph: Any, registry: Any) -> ControlSpec:
     """The control for one interface input, from the bounds and choices of every param it feeds."""
-    schemas = [_param_schema(graph, ref) for ref in item.to]
+    schemas = [_param_schema(graph, ref, registry) for ref in item.to]
     current = next((v for _, v in schemas if v is not None), None)
     initial = item.default if item.default is not None else current
     low = high = None
@@ -113,10 +113,10 @@ def _spec(item: Any, graph: Any) -> ControlSpec:
                        integer, step, hint=hint, unset=initial is None)
 
 
-def control_specs(graph: Any) -> list[ControlSpec]:
-    """One ControlSpec per interface input of ``graph``, in the interface's order."""
+def control_specs(graph: Any, registry: Any) -> list[ControlSpec]:
+    """One ControlSpec per interface input of ``graph`` (node types from ``registry``), in the interface's order."""
     iface = getattr(graph, "interface", None)
-    return [_spec(item, graph) for item in (iface.inputs if iface else [])]
+    return [_spec(item, graph, registry) for item in (iface.inputs if iface else [])]
 
 
 class FrontPanel:
@@ -126,10 +126,11 @@ class FrontPanel:
     ``controls`` and ``messages`` (per-control problem text) are keyed by input name.
     """
 
-    def __init__(self, gui: Any, graph: Any, on_change: Callable[[dict[str, Any]], Any], *, label: str = "Front panel"):
+    def __init__(self, gui: Any, graph: Any, on_change: Callable[[dict[str, Any]], Any], registry: Any, *,
+                 label: str = "Front panel"):
         self.gui = gui
         self.on_change = on_change
-        self.specs = {s.name: s for s in control_specs(graph)}
+        self.specs = {s.name: s for s in control_specs(graph, registry)}
         self.controls: dict[str, Any] = {}
         self.messages: dict[str, Any] = {}
         self._touched: set[str] = set()
@@ -142,9 +143,9 @@ class FrontPanel:
             self.status = gui.add_markdown("")
 
     def _add(self, spec: ControlSpec) -> None:
-        gui, hint = self.gui, spec.hint or None
+        gui, hint = self.gui, plain(spec.hint) if spec.hint else None
         if spec.kind == "note":
-            gui.add_markdown(f"`{spec.name}` ({spec.type}): fed by a wire, not set here")
+            gui.add_markdown(md("**{}** ({}): fed by a wire, not set here", spec.name, spec.type))
             return
         if spec.kind == "slider":
             lo = spec.low + (spec.step if spec.low_open else 0.0)
@@ -172,18 +173,18 @@ class FrontPanel:
         self._touched.add(name)
         problem = self.specs[name].problem(self.controls[name].value)
         message = self.messages[name]
-        message.content, message.visible = (f"**{name}** {problem}", True) if problem else ("", False)
+        message.content, message.visible = (md("**{}** {}", name, problem), True) if problem else ("", False)
         if problem:
             return
         try:
             self.on_change(self.values())
             self.status.content = ""
         except FlowmcError as err:
-            self.status.content = f"**Run failed:** {err}"
+            self.status.content = md("**Run failed:** {}", err)
 
     def show_result(self, ok: bool, message: str = "") -> None:
         """What the run a change caused did: nothing shown when it went well, else why not."""
-        self.status.content = "" if ok else f"**Run failed:** {message}"
+        self.status.content = "" if ok else md("**Run failed:** {}", message)
 
     def remove(self) -> None:
         """Take the panel off the page (to rebuild it for a changed interface)."""

@@ -15,12 +15,12 @@ from typing import Any, Callable
 
 import viser
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
 from flowmc.ui import forms
 from flowmc.ui.forms import MISSING, FieldSpec
 from flowmc.ui.state import EditorState
+from flowmc.ui.text import md, plain
 
 __all__ = ["Inspector", "parse_text"]
 
@@ -108,7 +108,7 @@ class Inspector:
         with self.lock:
             if self.root is not None:
                 self.root.remove()
-            self.fields, self.errors, self.specs = {}, {}, {}
+            self.fields, self.errors, self.specs, self.general = {}, {}, {}, None
             nodes = self.state.selected_nodes
             self.node_id = nodes[0] if len(nodes) == 1 and self.state.has_node(nodes[0]) else None
             with self.container:
@@ -124,11 +124,11 @@ class Inspector:
     def _build(self, node_id: str) -> None:
         node = self.state.node(node_id)
         try:
-            cls = registry.lookup(node.type, self.state.base_dir)
+            cls = self.state.runtime.registry.lookup(node.type, self.state.base_dir)
         except GraphError as exc:
-            self.gui.add_markdown(f"**{node_id}**: {exc.message}")
+            self.gui.add_markdown(md("**{}**: {}", node_id, exc.message))
             return
-        self.gui.add_markdown(f"**{node_id}** · {cls.title} (`{cls.type_id}`)  \n{cls.description}")
+        self.gui.add_markdown(md("**{}** · {} (_{}_)  \n{}", node_id, cls.title, cls.type_id, cls.description))
         self.general = self.gui.add_markdown("", visible=False)
         wired = {split_ref(w.to)[1]: w.from_ for w in self.state.graph.wires if split_ref(w.to)[0] == node_id}
         for spec in forms.form_fields(cls.Params.model_json_schema()):
@@ -180,11 +180,11 @@ class Inspector:
         self.errors[path] = self.gui.add_markdown("", visible=False)
 
     def _add_rows(self, spec: FieldSpec, path: tuple, rows: list) -> None:
-        self.gui.add_markdown(f"**{spec.label}**: {len(rows)} row{'s' if len(rows) != 1 else ''}")
+        self.gui.add_markdown(md("**{}**: {} row{}", spec.label, len(rows), "s" if len(rows) != 1 else ""))
         self.errors[path] = self.gui.add_markdown("", visible=False)
         for k, row in enumerate(rows):
             variant = str(row.get(spec.tag, "")) if isinstance(row, dict) and spec.tag else ""
-            with self.gui.add_folder(f"{spec.name} {k + 1}" + (f" · {variant}" if variant else ""), expand_by_default=len(rows) <= 8):
+            with self.gui.add_folder(plain(f"{spec.name} {k + 1}" + (f" · {variant}" if variant else ""), 80), expand_by_default=len(rows) <= 8):
                 if not isinstance(row, dict) or variant not in spec.variants:
                     self._add_field(FieldSpec(str(k), "json", "row"), (*path, k), row)
                     continue
@@ -268,11 +268,11 @@ class Inspector:
         for cut in range(len(path), 0, -1):
             handle = self.errors.get(path[:cut])
             if handle is not None:
-                handle.content, handle.visible = f"⚠ **{message}**", True
+                handle.content, handle.visible = md("⚠ **{}**", message), True
                 return
         if self.general is not None:
             where = ".".join(str(p) for p in path)
-            self.general.content, self.general.visible = f"⚠ **{where}: {message}**", True
+            self.general.content, self.general.visible = md("⚠ **{}: {}**", where, message), True
 
     def show_errors(self, errors: dict[tuple, str]) -> None:
         """Each problem under its field (or the nearest table above it); the rest at the top."""

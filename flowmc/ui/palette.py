@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.graph import load
 
@@ -55,8 +54,8 @@ def _graph_files(folder: Path, exclude: Path | None) -> list[PaletteItem]:
     return items
 
 
-def palette_items(graph_dir: Any = None, exclude: Path | None = None) -> list[PaletteItem]:
-    """Every node type (``describe_all``: registered types, then ``lib.*`` graphs) and the graph files
+def palette_items(registry: Any, graph_dir: Any = None, exclude: Path | None = None) -> list[PaletteItem]:
+    """Every node type of ``registry`` (``describe_all``: types, then ``lib.*`` graphs) and the graph files
     beside the open graph (``exclude``: the open graph itself)."""
     items = [PaletteItem(d["type_id"], d["title"], d["category"], d["description"])
              for d in registry.describe_all(graph_dir)]

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 from flowmc.graph import Issue
 from flowmc.ui import canvas_draw, layout
 from flowmc.ui.palette import PaletteItem, palette_items, search
+from flowmc.ui.text import md, plain
 
 if TYPE_CHECKING:
     from flowmc.ui.session import PanelHost
@@ -37,16 +38,16 @@ class PalettePanel:
         state, gui = self.host.session.state, self.host.gui
         with self.host.session.lock:
             if reload or not self.items:
-                self.items = palette_items(state.base_dir, exclude=state.path)
+                self.items = palette_items(self.host.session.runtime.registry, state.base_dir, exclude=state.path)
             found = search(self.items, self.search.value)
-            self.count.content = f"{len(found)} of {len(self.items)} entries" + (
-                f"; the first {MAX_RESULTS} shown" if len(found) > MAX_RESULTS else "")
+            self.count.content = md("{} of {} entries", len(found), len(self.items)) + (
+                md("; the first {} shown", MAX_RESULTS) if len(found) > MAX_RESULTS else "")
             for button in self.buttons.values():
                 button.remove()
             self.buttons = {}
             with self.folder:
                 for item in found[:MAX_RESULTS]:
-                    button = gui.add_button(f"{item.title}  ·  {item.category}", hint=f"{item.key}: {item.description}")
+                    button = gui.add_button(plain(f"{item.title}  ·  {item.category}", 120), hint=plain(f"{item.key}: {item.description}"))
                     button.on_click(lambda _e, item=item: self.add(item))
                     self.buttons[item.key] = button
 
@@ -104,7 +105,7 @@ class ProblemsPanel:
         self.buttons = []
         with self.folder:
             for node_id, message in entries[:MAX_PROBLEMS]:
-                button = gui.add_button(canvas_draw.shorten(message, 90), hint=message, color="red")
+                button = gui.add_button(plain(canvas_draw.shorten(message, 90)), hint=plain(message), color="red")
                 if node_id is not None:
                     button.on_click(lambda _e, n=node_id: host.select_node(n))
                 self.buttons.append(button)

@@ -12,7 +12,7 @@ import contextlib
 from dataclasses import dataclass
 from typing import Any
 
-from flowmc import registry
+from flowmc.ports import In, Out, Ports
 from flowmc.errors import GraphError
 from flowmc.graph import Node
 
@@ -74,16 +74,16 @@ class NodePorts:
         return next((p for p in self.outputs if p.name == name), None)
 
 
-def _in(port: registry.In) -> PortInfo:
+def _in(port: In) -> PortInfo:
     return PortInfo(port.name, "in", port.types, port.param, port.required, port.doc)
 
 
-def _out(port: registry.Out) -> PortInfo:
+def _out(port: Out) -> PortInfo:
     return PortInfo(port.name, "out", (port.type,), doc=port.doc)
 
 
-def node_ports(node: Node, graph_dir: Any = None, plan: Any = None) -> NodePorts:
-    """Ports of ``node``: from ``plan`` (``Runtime.plan``) when it bound the node, else from its type."""
+def node_ports(node: Node, registry: Any, graph_dir: Any = None, plan: Any = None) -> NodePorts:
+    """Ports of ``node``: from ``plan`` (``Runtime.plan``) when it bound the node, else from its type in ``registry``."""
     if plan is not None and node.id in plan.nodes:
         inputs, outputs = plan.ports(node.id)
         ins = [_in(p) for p in inputs.values()]
@@ -93,7 +93,7 @@ def node_ports(node: Node, graph_dir: Any = None, plan: Any = None) -> NodePorts
         cls = registry.lookup(node.type, graph_dir)
     except GraphError:
         return NodePorts(known=False)
-    ports = registry.Ports(cls.inputs, cls.outputs)
+    ports = Ports(cls.inputs, cls.outputs)
     if cls.dynamic_ports():
         with contextlib.suppress(Exception):  # invalid params: the declared ports
             ports = cls.ports(cls.Params.model_validate(node.params))

@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import FlowmcError
+from flowmc.ui.text import md
 
 if TYPE_CHECKING:
     from flowmc.ui.session import PanelHost
@@ -42,7 +43,7 @@ class SelectionPanel:
                          + ("…" if len(nodes) > 8 else ""))
         if wires:
             parts.append(f"wire {wires[0][0]} → {wires[0][1]}" if len(wires) == 1 else f"{len(wires)} wires")
-        self.summary.content = "Selected: " + "; ".join(parts) if parts else \
+        self.summary.content = md("Selected: {}", "; ".join(parts)) if parts else \
             "Nothing selected. Click a node or a wire; shift-click to add to the selection."
         self.delete_button.visible = bool(nodes or wires)
         self.open_button.visible = len(nodes) == 1 and self._file_of(nodes[0]) is not None

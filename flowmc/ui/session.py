@@ -22,7 +22,8 @@ from typing import Any, Protocol
 
 from flowmc.errors import FlowmcError
 from flowmc.graph import Graph, Issue
-from flowmc.runtime import Event, Runtime
+from flowmc.api import Runtime
+from flowmc.runtime import Event
 from flowmc.ui.state import EditorState
 
 __all__ = ["EditorSession", "RunRequest", "RunRefused", "PanelHost", "DeviceAccess", "JobAccess"]

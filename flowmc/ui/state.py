@@ -14,7 +14,7 @@ from typing import Any, Callable, Iterable
 
 from flowmc.errors import GraphError
 from flowmc.graph import Graph, Issue, Node, Wire, dumps, load, loads, save, split_ref
-from flowmc.runtime import Runtime
+from flowmc.api import Runtime
 from flowmc.ui import extract, wiring
 from flowmc.ui.extract import fresh_id
 from flowmc.ui.history import History
@@ -160,15 +160,13 @@ class EditorState:
         return list(self.plan().issues)
 
     def ports(self, node_id: str) -> NodePorts:
-        return node_ports(self.node(node_id), self.base_dir, self.plan())
+        return node_ports(self.node(node_id), self.runtime.registry, self.base_dir, self.plan())
 
     def param_errors(self, node_id: str) -> dict[tuple, str]:
         """Problems with the node's stored params, by field path (params fed by a wire are skipped)."""
         node = self.node(node_id)
         try:
-            from flowmc import registry
-
-            cls = registry.lookup(node.type, self.base_dir)
+            cls = self.runtime.registry.lookup(node.type, self.base_dir)
         except GraphError as exc:
             return {("(type)",): exc.message}
         wired = {split_ref(w.to)[1] for w in self.graph.wires if split_ref(w.to)[0] == node_id}

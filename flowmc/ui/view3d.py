@@ -24,6 +24,9 @@ from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path, describe_segment
 from flowmc.motion.trajectory import Steps, Trajectory
 from flowmc.ui import view3d_data as data
+from flowmc.ui import viser_internals
+from flowmc.ui.guard import Guard
+from flowmc.ui.text import md
 
 __all__ = ["ToolpathView", "embed_html"]
 
@@ -50,11 +53,13 @@ class ToolpathView:
     ``time_slider``, ``play_button``, ``marker``, ``info``.
     """
 
-    def __init__(self, host: str = "127.0.0.1", port: int = 0, *, tol: float = 0.01, max_plot_points: int = 4000):
+    def __init__(self, host: str = "127.0.0.1", port: int = 0, *, tol: float = 0.01, max_plot_points: int = 4000,
+                 guard: Guard | None = None):
         self.host = host
+        self.guard = guard or Guard(host)
         self.tol = tol
         self.max_plot_points = max_plot_points
-        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.server = viser_internals.guarded_server(self.guard, host=host, port=port, verbose=False)
         # Docked beside the editor the view is narrow: medium-width controls that fold away (the ">>" button).
         self.server.gui.configure_theme(show_share_button=False, control_width="medium")
         self.server.gui.main_panel.dock_right()  # beside the scene, not over it
@@ -79,7 +84,7 @@ class ToolpathView:
         """Where a browser finds the view: on all interfaces (``--host 0.0.0.0``), by this machine's
         name, so the editor's iframe works from other machines too."""
         host = socket.gethostname() if self.host in ("0.0.0.0", "::", "") else self.host
-        return f"http://{host}:{self.server.get_port()}"
+        return self.guard.url(host, self.server.get_port())
 
     # ------------------------------------------------------------------ GUI
     def _build_gui(self) -> None:
@@ -199,7 +204,7 @@ class ToolpathView:
         for m in motions:
             unit = "s" if m.timed else "ticks (untimed)"
             top = float(m.speed.max()) if len(m.t) > 1 else 0.0
-            lines.append(f"- {m.name}: {len(m.t)} samples, {m.duration:.4g} {unit}, peak speed {top:.4g}")
+            lines.append(md("- {}: {} samples, {:.4g} {}, peak speed {:.4g}", m.name, len(m.t), m.duration, unit, top))
         if machine is None:
             lines.append("- no machine wired: no travel box")
         if self.speed_top > 0:
@@ -265,7 +270,7 @@ class ToolpathView:
                      if m.segment is not None and k < len(m.segment) else "")
             coords = " ".join(f"{a} {m.positions[k, i]:.3f}" for i, a in enumerate(m.axes))
             unit = "mm/s" if m.timed else "mm/tick"
-            self.readout.content = f"t = {m.t[k]:.4f} · {coords} mm · speed {v:.3f} {unit}{where}"
+            self.readout.content = md("t = {:.4f} · {} mm · speed {:.3f} {}{}", m.t[k], coords, v, unit, where)
 
     def set_time(self, t: float) -> None:
         """Put the playback at time ``t`` (clamped): moves the slider and the marker."""

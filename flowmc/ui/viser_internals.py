@@ -9,16 +9,40 @@ right angle and the azimuth at the nearest quarter turn (the view stays flat on 
 maps left and right drag to panning, zooms toward the cursor, and turns the view back if anything
 turns it (a pan was seen to turn it by 0.24 degrees). If a future viser renames
 these, the camera simply orbits again; nothing else depends on them.
+
+viser 1.1.1 has no hook to vet connections or client messages, so ``guarded_server`` adds two
+small layers (``flowmc.ui.guard`` holds the policy; docs/security.md says why):
+- every HTTP request and websocket handshake passes ``Guard.check`` first. viser starts its server
+  inside ``ViserServer()`` with ``websockets.asyncio.server.serve(..., process_request=...)``, looked
+  up through the ``websockets`` name of ``viser.infra._infra``; while one guarded server is being
+  built (under a lock) that name points at a stand-in whose ``serve`` puts the guard in front of
+  viser's own ``process_request`` and delegates everything else to the real package;
+- messages from clients that viser would apply to server-side GUI state are filtered before viser's
+  handlers see them: a GUI update may change only ``value`` (viser would ``setattr`` any field the
+  client names, ``update_cb`` included), of a control that exists, is enabled and visible, to a value
+  of the control's own type and range (a dropdown's options, a number's bounds); uploads are bounded.
+If a future viser moves these, ``guarded_server`` raises instead of serving unguarded.
 """
 
 from __future__ import annotations
 
 import json
-from typing import Any
+import math
+import threading
+from typing import Any, Callable
 
+import viser
+import viser.infra._infra as _infra
 from viser import _messages
 
-__all__ = ["lock_flat_camera", "set_page_title"]
+from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
+
+__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "MAX_UPLOAD_BYTES"]
+
+MAX_UPLOAD_BYTES = 32 * 1024 * 1024  # a graph file is far smaller; G-code files are not uploaded
+MAX_TEXT_VALUE = 1_000_000  # characters a text field may be set to
+_SECURITY_HEADERS = {"Referrer-Policy": "no-referrer", "X-Content-Type-Options": "nosniff", "Cache-Control": "no-store"}
+_build_lock = threading.Lock()
 
 # camera-controls ACTION codes (v2): TRUCK pans, DOLLY zooms; TOUCH_TRUCK pans with one finger.
 _LOCK_JS = """
@@ -55,3 +79,158 @@ def lock_flat_camera(client: Any) -> None:
 def set_page_title(client: Any, title: str) -> None:
     """The browser tab's title (the editor puts the file name and the unsaved-changes mark there)."""
     _send(client, f"document.title = {json.dumps(title)};")
+
+
+# ---------------------------------------------------------------------------------------- the guard
+class _Namespace:
+    """Stands in for a module: ``overrides`` first, then the real module's attributes."""
+
+    def __init__(self, real: Any, **overrides: Any):
+        self._real = real
+        self.__dict__.update(overrides)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._real, name)
+
+
+def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None) -> Callable[..., Any]:
+    def process_request(connection: Any, request: Any) -> Any:
+        port = connection.local_address[1]
+        headers = request.headers
+        if any(len(headers.get_all(name)) > 1 for name in ("Host", "Origin")):
+            verdict = Verdict(False, 403, "repeated Host or Origin header")
+        else:
+            verdict = guard.check({k: "; ".join(headers.get_all(k)) for k in ("Host", "Origin", "Cookie")
+                                   if headers.get_all(k)}, request.path, port)
+        if not verdict.ok:
+            response = connection.respond(verdict.status, REFUSED_PAGE.format(reason=verdict.reason))
+            for key, value in _SECURITY_HEADERS.items():
+                response.headers[key] = value
+            return response
+        response = inner(connection, request) if inner is not None else None
+        if response is not None:  # a page or file (a websocket handshake returns None and goes on)
+            for key, value in _SECURITY_HEADERS.items():
+                response.headers[key] = value
+            if verdict.set_cookie:
+                response.headers["Set-Cookie"] = guard.set_cookie(port)
+        return response
+
+    return process_request
+
+
+def guarded_server(guard: Guard, **kwargs: Any) -> viser.ViserServer:
+    """``viser.ViserServer(**kwargs)`` that answers only requests passing ``guard`` and lets clients
+    change only the values of enabled, visible controls."""
+    real = _infra.websockets
+    real_serve = real.asyncio.server.serve
+    used: list[bool] = []
+
+    def serve(handler: Any, *args: Any, process_request: Any = None, **options: Any) -> Any:
+        used.append(True)
+        return real_serve(handler, *args, process_request=_guarded_process_request(guard, process_request), **options)
+
+    stand_in = _Namespace(real, asyncio=_Namespace(real.asyncio, server=_Namespace(real.asyncio.server, serve=serve)))
+    with _build_lock:
+        _infra.websockets = stand_in
+        try:
+            server = viser.ViserServer(**kwargs)
+        finally:
+            _infra.websockets = real
+    if not used:
+        server.stop()
+        raise RuntimeError("viser did not start its server through websockets.asyncio.server.serve: "
+                           "flowmc cannot guard this viser version")
+    _filter_client_messages(server)
+    return server
+
+
+# ---------------------------------------------------------------------------------------- client messages
+def _input_handle(gui: Any, uuid: str) -> Any:
+    return gui._gui_input_handle_from_uuid.get(uuid) if gui is not None else None
+
+
+def _same_kind(current: Any, new: Any) -> bool:
+    """``new`` is a value of the kind ``current`` is (bool, finite number, bounded text, tuple of those)."""
+    if isinstance(current, bool):
+        return isinstance(new, bool)
+    if isinstance(current, (int, float)):
+        return isinstance(new, (int, float)) and not isinstance(new, bool) and math.isfinite(new)
+    if isinstance(current, str):
+        return isinstance(new, str) and len(new) <= MAX_TEXT_VALUE
+    if isinstance(current, tuple):
+        return (isinstance(new, (list, tuple)) and len(new) == len(current)
+                and all(_same_kind(c, n) for c, n in zip(current, new)))
+    return current is None and new is None
+
+
+def _in_range(handle: Any, value: Any) -> bool:
+    options = getattr(handle, "options", None)
+    if isinstance(options, tuple) and isinstance(value, str) and value not in options:
+        return False
+    low, high = getattr(handle, "min", None), getattr(handle, "max", None)
+    values = value if isinstance(value, (list, tuple)) else (value,)
+    lows = low if isinstance(low, tuple) else (low,) * len(values)
+    highs = high if isinstance(high, tuple) else (high,) * len(values)
+    for v, lo, hi in zip(values, lows, highs):
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            if (isinstance(lo, (int, float)) and v < lo) or (isinstance(hi, (int, float)) and v > hi):
+                return False
+    return True
+
+
+def update_allowed(gui: Any, message: Any) -> bool:
+    """May a client's ``GuiUpdateMessage`` reach ``gui`` (the GUI that owns the control)?"""
+    handle = _input_handle(gui, message.uuid)
+    if handle is None:
+        return True  # not this GUI's control: viser ignores it
+    updates = message.updates
+    if not isinstance(updates, dict) or set(updates) != {"value"}:
+        return False
+    if handle._impl.removed or handle.disabled or not handle.visible:
+        return False
+    new, current = updates["value"], handle._impl.value
+    if handle._impl.is_button:  # a button sends True, a button group one of its options
+        options = getattr(handle, "options", None)
+        return isinstance(new, str) and new in options if isinstance(options, tuple) else new is True
+    return _same_kind(current, new) and _in_range(handle, new)
+
+
+def _upload_allowed(gui: Any, message: Any) -> bool:
+    if isinstance(message, _messages.FileTransferStartUpload):
+        handle = _input_handle(gui, message.source_component_uuid)
+        if handle is None:
+            return True
+        return (not handle.disabled and handle.visible and 0 <= message.size_bytes <= MAX_UPLOAD_BYTES
+                and 0 <= message.part_count <= max(1, message.size_bytes))
+    state = gui._current_file_upload_states.get(message.transfer_uuid) if gui is not None else None
+    return state is None or state["transferred_bytes"] + len(message.content) <= state["total_bytes"]
+
+
+def _filter(handler: Any, gui_of: Callable[[int], Any]) -> None:
+    """Wrap ``handler``'s incoming-message dispatch (a viser websocket server or client connection) so
+    messages that would change server-side state they may not change are dropped."""
+    dispatch = handler._handle_incoming_message
+
+    async def filtered(client_id: Any, message: Any) -> None:
+        if isinstance(message, _messages.GuiUpdateMessage):
+            if not update_allowed(gui_of(client_id), message):
+                return
+        elif isinstance(message, (_messages.FileTransferStartUpload, _messages.FileTransferPart)):
+            if not _upload_allowed(gui_of(client_id), message):
+                return
+        await dispatch(client_id, message)
+
+    handler._handle_incoming_message = filtered
+
+
+def _filter_client_messages(server: viser.ViserServer) -> None:
+    infra_server = server._websock_server
+    _filter(infra_server, lambda _cid: server.gui)
+
+    def per_client(connection: Any) -> None:
+        def client_gui(cid: Any) -> Any:
+            client = server._connected_clients.get(cid)
+            return client.gui if client is not None else None
+        _filter(connection, client_gui)
+
+    infra_server.on_client_connect(per_client)

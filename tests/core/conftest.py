@@ -1,17 +1,14 @@
-"""Registers the test-only node types per test inside registry.scoped(), so the registry stays clean."""
+"""The core tests' registry: the default one plus the test-only node types, fresh per test."""
 
 import pytest
 from core_helpers import TEST_TYPES
 
-from flowmc import registry
-from flowmc.nodes import load_all
+from flowmc.plugins import default_registry
 
 
-@pytest.fixture(autouse=True)
-def clean_registry():
-    load_all()
-    with registry.scoped():
-        for cls in TEST_TYPES:
-            registry.register(cls)
-        yield
-    assert not any(t.startswith("test.") for t in registry.registered())
+@pytest.fixture
+def registry():
+    reg = default_registry().copy()
+    for cls in TEST_TYPES:
+        reg.add(cls)
+    return reg

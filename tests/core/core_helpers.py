@@ -1,4 +1,4 @@
-"""Test-only node types and a CLI runner for the core tests (conftest.py registers the types per test)."""
+"""Test-only node types and a CLI runner for the core tests (conftest.py adds the types to a test registry)."""
 
 from __future__ import annotations
 

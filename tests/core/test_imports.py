@@ -9,7 +9,7 @@ CODE = """
 import sys
 import flowmc
 assert [m for m in sys.modules if m.startswith("flowmc.")] == [], "import flowmc must stay light"
-import flowmc.graph, flowmc.registry, flowmc.runtime, flowmc.subgraph, flowmc.builder, flowmc.cli, flowmc.digest
+import flowmc.graph, flowmc.registry, flowmc.runtime, flowmc.ports, flowmc.builder, flowmc.cli, flowmc.digest
 g = flowmc.GraphBuilder()
 g.add("basic.number", id="n")
 flowmc.save(g.build(), sys.argv[1])
@@ -28,8 +28,10 @@ def test_core_imports_no_nodes_devices_or_ui(tmp_path):
 
 def test_console_script_and_module_entry_points_agree():
     import shutil
+    from pathlib import Path
 
-    script = shutil.which("flowmc")
+    beside = Path(sys.executable).with_name("flowmc")  # pip installs the script beside the interpreter
+    script = str(beside) if beside.exists() else shutil.which("flowmc")
     assert script is not None, "pip install -e . provides the flowmc command"
     via_script = subprocess.run([script, "schema"], capture_output=True, text=True, timeout=60)
     via_module = subprocess.run([sys.executable, "-m", "flowmc", "schema"], capture_output=True, text=True, timeout=60)

@@ -1,4 +1,4 @@
-"""Node registry: declarations checked at import, param ports, describe, clean scoping."""
+"""Node registry: declarations checked at import, param ports, describe, registries as plain objects."""
 
 from __future__ import annotations
 
@@ -7,9 +7,10 @@ from typing import Literal
 import pytest
 from pydantic import BaseModel, ConfigDict, Field
 
-from flowmc import registry
+import flowmc
 from flowmc.errors import GraphError
-from flowmc.registry import In, NodeType, Out, Ports, register
+from flowmc.plugins import default_registry
+from flowmc.registry import In, NodeType, Out, Ports, Registry, register
 
 
 class _P(BaseModel):
@@ -54,18 +55,21 @@ def test_param_ports_follow_the_params_model():
 def test_bad_declarations_fail_at_registration(attrs, message):
     with pytest.raises(TypeError, match=message):
         register(_make(**attrs))
-    assert "test.made" not in registry.registered()
+    reg = Registry()
+    with pytest.raises(TypeError, match=message):
+        reg.add(_make(**attrs))
+    assert "test.made" not in reg
 
 
 def test_type_id_cannot_be_taken_twice():
-    register(_make())
+    reg = Registry([_make()])
     other = type("Other", (NodeType,), {"type_id": "test.made", "title": "O", "category": "T", "description": "d",
                                         "run": lambda self, ctx, params: {}})
     with pytest.raises(TypeError, match="already used"):
-        register(other)
+        reg.add(other)
 
 
-def test_describe_gives_ports_schema_and_text():
+def test_describe_gives_ports_schema_and_text(registry):
     d = registry.describe("test.sink")
     assert d["description"] == "Takes a Path or a Trajectory and reports its label length."
     assert d["inputs"] == [{"name": "path", "types": ["Path", "Trajectory"], "doc": "blob", "required": True,
@@ -76,29 +80,36 @@ def test_describe_gives_ports_schema_and_text():
     assert [p["name"] for p in blob["param_inputs"]] == ["label", "feed"]
 
 
-def test_dynamic_ports_are_described_for_given_params():
+def test_dynamic_ports_are_described_for_given_params(registry):
     d = registry.describe("basic.report", params={"names": ["cycle", "error"]})
     assert [p["name"] for p in d["inputs"]] == ["cycle", "error"]
-    assert registry.registered()["basic.report"].dynamic_ports()
-    assert not registry.registered()["basic.add"].dynamic_ports()
+    assert registry.types()["basic.report"].dynamic_ports()
+    assert not registry.types()["basic.add"].dynamic_ports()
 
 
-def test_describe_all_lists_every_type_sorted():
+def test_describe_all_lists_every_type_sorted(registry):
     ids = [d["type_id"] for d in registry.describe_all()]
     assert ids == sorted(ids)
-    assert {"basic.number", "basic.check", "basic.report", "subgraph", "test.blob"} <= set(ids)
+    assert {"basic.number", "basic.check", "basic.report", "subgraph", "test.blob", "lib.home_all"} <= set(ids)
 
 
-def test_scoped_restores_the_registry():
-    with registry.scoped():
-        register(_make())
-        assert "test.made" in registry.registered()
-    assert "test.made" not in registry.registered()
+def test_registries_are_independent_objects(registry):
+    mine = registry.copy()
+    mine.add(_make())
+    assert "test.made" in mine and "test.made" not in registry and "test.made" not in default_registry()
+    assert mine.generation != registry.generation
     with pytest.raises(GraphError, match="unknown node type"):
         registry.lookup("test.made")
+    g = flowmc.GraphBuilder()
+    g.add("test.made", id="m")
+    assert flowmc.validate(g.build(), registry=mine) == []
+    assert [i.code for i in flowmc.validate(g.build(), registry=registry)] == ["unknown-node-type"]
+    before = mine.generation
+    mine.remove("test.made")
+    assert "test.made" not in mine and mine.generation != before
 
 
-def test_overridden_ports_are_checked_when_used():
+def test_overridden_ports_are_checked_when_used(registry):
     class Dyn(NodeType):
         type_id = "test.dyn"
         title = "Dyn"
@@ -112,20 +123,17 @@ def test_overridden_ports_are_checked_when_used():
         def run(self, ctx, params, **kw):
             return {}
 
-    register(Dyn)
-    import flowmc
-
+    registry.add(Dyn)
     g = flowmc.GraphBuilder()
     g.add("test.dyn", id="d")
-    issues = flowmc.validate(g.build())
+    issues = flowmc.validate(g.build(), registry=registry)
     assert len(issues) == 1 and "node 'd'" in issues[0].message and "unknown port type" in issues[0].message
 
 
 def test_every_node_module_of_the_package_loads_and_every_type_describes_itself():
     """A node module that fails to import is only recorded at run time: here it fails the build."""
-    from flowmc.nodes import load_all
-
-    assert load_all() == {}
+    registry = default_registry()
+    assert registry.failures == {}
     described = registry.describe_all()
     ids = {d["type_id"] for d in described}
     for expected in ("path.segment_table", "path.gcode_in", "plan.lookahead", "interp.point_by_point",

@@ -32,16 +32,16 @@ def _ran(events):
     return sorted(e.node_id for e in events if e.kind == "running")
 
 
-def test_runs_in_deterministic_topological_order():
-    result = flowmc.run(_diamond())
+def test_runs_in_deterministic_topological_order(registry):
+    result = flowmc.run(_diamond(), registry=registry)
     assert result.ok and result.outputs == {"total": 3.0}
     assert result.order == ["blob", "clock", "n1", "n2", "a1", "a3", "sink", "a2", "chk"]
     assert [e.node_id for e in result.events if e.kind == "running"] == result.order
     assert result.output("sink", "n") == 3.0 and result.output("a3", "result") == 11.0
 
 
-def test_unchanged_graph_re_runs_nothing_but_side_effect_nodes():
-    rt, graph = flowmc.Runtime(), _diamond()
+def test_unchanged_graph_re_runs_nothing_but_side_effect_nodes(registry):
+    rt, graph = flowmc.Runtime(registry), _diamond()
     first = rt.run(graph)
     assert _ran(first.events) == sorted(first.order)
     second = rt.run(graph)
@@ -50,8 +50,8 @@ def test_unchanged_graph_re_runs_nothing_but_side_effect_nodes():
     assert second.outputs == first.outputs
 
 
-def test_changing_one_param_re_runs_only_its_downstream_cone():
-    rt, graph = flowmc.Runtime(), _diamond()
+def test_changing_one_param_re_runs_only_its_downstream_cone(registry):
+    rt, graph = flowmc.Runtime(registry), _diamond()
     rt.run(graph)
     graph.node("a1").params["b"] = 5
     result = rt.run(graph)
@@ -63,20 +63,20 @@ def test_changing_one_param_re_runs_only_its_downstream_cone():
     assert result.output("sink", "n") == 4.0
 
 
-def test_same_value_upstream_keeps_downstream_cached():
-    rt, graph = flowmc.Runtime(), _diamond()
+def test_same_value_upstream_keeps_downstream_cached(registry):
+    rt, graph = flowmc.Runtime(registry), _diamond()
     rt.run(graph)
     graph.node("n1").params["value"] = 1.0  # int 1 -> float 1.0: same validated params
     assert _ran(rt.run(graph).events) == ["chk", "clock"]
 
 
-def test_caches_belong_to_the_runtime():
+def test_caches_belong_to_the_runtime(registry):
     graph = _diamond()
-    flowmc.Runtime().run(graph)
-    assert len(_ran(flowmc.Runtime().run(graph).events)) == 9
+    flowmc.Runtime(registry).run(graph)
+    assert len(_ran(flowmc.Runtime(registry).run(graph).events)) == 9
 
 
-def test_failure_skips_downstream_and_independent_branches_still_run():
+def test_failure_skips_downstream_and_independent_branches_still_run(registry):
     g = flowmc.GraphBuilder()
     boom = g.add("test.boom", id="boom")
     after = g.add("basic.add", id="after")
@@ -84,7 +84,7 @@ def test_failure_skips_downstream_and_independent_branches_still_run():
     g.wire(boom.value, after.a)
     g.wire(after.result, last.b)
     g.add("basic.number", id="other", value=4)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), registry=registry)
     assert not result.ok
     assert {n: r.status for n, r in result.nodes.items()} == {
         "boom": "failed", "other": "done", "after": "skipped", "last": "skipped"}
@@ -95,16 +95,16 @@ def test_failure_skips_downstream_and_independent_branches_still_run():
     assert kinds == [("failed", "boom"), ("skipped", "after"), ("skipped", "last")]
 
 
-def test_check_node_fails_the_run_with_a_clear_message():
-    rt, graph = flowmc.Runtime(), _diamond()
+def test_check_node_fails_the_run_with_a_clear_message(registry):
+    rt, graph = flowmc.Runtime(registry), _diamond()
     graph.node("chk").params.update(max=2.5, label="sum")
     result = rt.run(graph)
     assert result.errors == ["node 'chk': check failed: sum = 3 is outside [0, 2.5]"]
     assert result.outputs == {}
 
 
-def test_events_are_a_closed_set_delivered_to_this_runtime_only():
-    rt, other = flowmc.Runtime(), flowmc.Runtime()
+def test_events_are_a_closed_set_delivered_to_this_runtime_only(registry):
+    rt, other = flowmc.Runtime(registry), flowmc.Runtime(registry)
     mine, theirs = [], []
     unsubscribe = rt.subscribe(mine.append)
     other.subscribe(theirs.append)
@@ -122,8 +122,8 @@ def test_events_are_a_closed_set_delivered_to_this_runtime_only():
     assert len(mine) == len(result.events)
 
 
-def test_a_failing_listener_is_dropped_not_fatal(capsys):
-    rt = flowmc.Runtime()
+def test_a_failing_listener_is_dropped_not_fatal(registry, capsys):
+    rt = flowmc.Runtime(registry)
 
     def bad(event):
         raise RuntimeError("listener bug")
@@ -133,7 +133,7 @@ def test_a_failing_listener_is_dropped_not_fatal(capsys):
     assert "listener bug" in capsys.readouterr().err
 
 
-def test_param_fed_by_wire_overrides_the_stored_value():
+def test_param_fed_by_wire_overrides_the_stored_value(registry):
     g = flowmc.GraphBuilder()
     n = g.add("basic.number", id="n", value=7)
     add = g.add("basic.add", id="add", a=1, b=100)
@@ -141,7 +141,7 @@ def test_param_fed_by_wire_overrides_the_stored_value():
     blob = g.add("test.blob", id="blob", feed=10)
     g.wire(n.value, blob.feed)
     graph = g.build()
-    rt = flowmc.Runtime()
+    rt = flowmc.Runtime(registry)
     result = rt.run(graph)
     assert result.output("add", "result") == 8.0 and result.output("blob", "feed") == 7.0
     graph.node("n").params["value"] = -3  # violates the params model (feed > 0): refused at run time
@@ -151,7 +151,7 @@ def test_param_fed_by_wire_overrides_the_stored_value():
     assert result.nodes["add"].status == "done" and result.output("add", "result") == -2.0
 
 
-def test_interface_inputs_feed_ports_and_are_checked():
+def test_interface_inputs_feed_ports_and_are_checked(registry):
     g = flowmc.GraphBuilder()
     add = g.add("basic.add", id="add", a=1, b=2)
     sink = g.add("test.sink", id="sink")
@@ -159,7 +159,7 @@ def test_interface_inputs_feed_ports_and_are_checked():
     g.input("p", "Path", sink.path)
     g.output("sum", "Number", add.result)
     graph = g.build()
-    rt = flowmc.Runtime()
+    rt = flowmc.Runtime(registry)
     from core_helpers import Blob
 
     assert rt.run(graph, {"p": Blob("q")}).outputs == {"sum": 41.0}
@@ -172,11 +172,10 @@ def test_interface_inputs_feed_ports_and_are_checked():
                         "no interface input 'nope' (inputs: b, p)"]
 
 
-def test_node_returning_wrong_outputs_fails_clearly():
-    from flowmc import registry
+def test_node_returning_wrong_outputs_fails_clearly(registry):
     from flowmc.registry import NodeType, Out
 
-    @registry.register
+    @registry.add
     class Sloppy(NodeType):
         type_id = "test.sloppy"
         title = "Sloppy"
@@ -189,26 +188,26 @@ def test_node_returning_wrong_outputs_fails_clearly():
 
     g = flowmc.GraphBuilder()
     g.add("test.sloppy", id="s")
-    assert flowmc.run(g.build()).errors == ["node 's': output 'value' should be a Number, got str"]
+    assert flowmc.run(g.build(), registry=registry).errors == ["node 's': output 'value' should be a Number, got str"]
 
 
-def test_report_collects_named_numbers():
+def test_report_collects_named_numbers(registry):
     g = flowmc.GraphBuilder()
     a, b = g.add("basic.number", id="a", value=1.5), g.add("basic.number", id="b", value=2)
     r = g.add("basic.report", id="r", names=["time_s", "err_mm"], title="Run")
     g.wire(a.value, r.time_s)
     g.wire(b.value, r.err_mm)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), registry=registry)
     table = result.output("r", "table")
     assert isinstance(table, Table) and table.to_rows() == [{"name": "time_s", "value": 1.5}, {"name": "err_mm", "value": 2.0}]
     assert result.output("r", "text") == "Run\ntime_s = 1.5\nerr_mm = 2"
 
 
-def test_ratio_and_divide():
+def test_ratio_and_divide(registry):
     g = flowmc.GraphBuilder()
     g.add("basic.ratio", id="r", value=1.2, reference=1.0)
     g.add("basic.divide", id="d", a=1, b=0)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), registry=registry)
     assert result.output("r", "ratio") == pytest.approx(1.2) and result.output("r", "change_percent") == pytest.approx(20.0)
     assert result.errors == ["node 'd': division by zero (b = 0)"]
 

@@ -50,8 +50,8 @@ EXPECTED = {
 }
 
 
-def test_every_problem_is_reported_once_naming_its_node():
-    issues = flowmc.validate(_everything_wrong())
+def test_every_problem_is_reported_once_naming_its_node(registry):
+    issues = flowmc.validate(_everything_wrong(), registry=registry)
     by_code = {}
     for issue in issues:
         by_code.setdefault(issue.code, []).append(issue)
@@ -65,8 +65,8 @@ def test_every_problem_is_reported_once_naming_its_node():
     assert not any("'a5'" in i.message for i in issues if i.code != "duplicate-node-id")
 
 
-def test_messages_name_the_ports():
-    issues = {i.code: i for i in flowmc.validate(_everything_wrong())}
+def test_messages_name_the_ports(registry):
+    issues = {i.code: i for i in flowmc.validate(_everything_wrong(), registry=registry)}
     assert "node 'num' output 'value' is Number but node 'k2' input 'path' takes Path or Trajectory" in issues["broken-wire"].message
     assert "node 'a3' has no input 'zzz'" in issues["unknown-port"].message
     assert issues["unknown-port"].location == ("wires", 3, "to")
@@ -75,7 +75,7 @@ def test_messages_name_the_ports():
     assert "(test.blob params: label, feed)" in issues["unknown-param"].message
 
 
-def test_cycle_names_every_node_in_it():
+def test_cycle_names_every_node_in_it(registry):
     g = flowmc.GraphBuilder()
     ids = ["c", "a", "b"]
     refs = [g.add("basic.add", id=i) for i in ids]
@@ -84,47 +84,47 @@ def test_cycle_names_every_node_in_it():
     other = [g.add("basic.add", id="x"), g.add("basic.add", id="y")]
     g.wire(other[0].result, other[1].a)
     g.wire(other[1].result, other[0].b)
-    issues = flowmc.validate(g.build())
+    issues = flowmc.validate(g.build(), registry=registry)
     assert [i.code for i in issues] == ["cycle", "cycle"]
     assert issues[0].message == "node 'a': cycle a -> b -> c -> a"
     assert issues[1].message == "node 'x': cycle x -> y -> x"
 
 
-def test_nothing_runs_when_the_graph_is_invalid():
-    rt = flowmc.Runtime()
+def test_nothing_runs_when_the_graph_is_invalid(registry):
+    rt = flowmc.Runtime(registry)
     seen = []
     rt.subscribe(seen.append)
     with pytest.raises(GraphError) as info:
         rt.run(_everything_wrong())
-    assert len(info.value.issues) == len(flowmc.validate(_everything_wrong()))
+    assert len(info.value.issues) == len(flowmc.validate(_everything_wrong(), registry=registry))
     assert seen == []
 
 
-def test_wired_param_is_not_flagged_for_its_stored_value():
+def test_wired_param_is_not_flagged_for_its_stored_value(registry):
     g = flowmc.GraphBuilder()
     n = g.add("basic.number", id="n", value=5)
     b = g.add("test.blob", id="b", feed=-1)  # stored value invalid, but a wire feeds it
     g.wire(n.value, b.feed)
-    assert flowmc.validate(g.build()) == []
+    assert flowmc.validate(g.build(), registry=registry) == []
 
 
-def test_plan_gives_the_order_and_ports_without_running():
+def test_plan_gives_the_order_and_ports_without_running(registry):
     g = flowmc.GraphBuilder()
     b, k = g.add("test.blob", id="zz"), g.add("test.sink", id="aa")
     n = g.add("basic.number", id="mm")
     g.wire(b.path, k.path)
-    plan = flowmc.Runtime().plan(g.build())
+    plan = flowmc.Runtime(registry).plan(g.build())
     assert plan.ok and plan.generations == [["mm", "zz"], ["aa"]] and plan.order == ["mm", "zz", "aa"]
     inputs, outputs = plan.ports("zz")
     assert set(inputs) == {"label", "feed"} and set(outputs) == {"path", "feed"}
     assert plan.downstream("zz") == {"aa"} and n.id == "mm"
 
 
-def test_plan_is_computed_once_per_graph_revision():
+def test_plan_is_computed_once_per_graph_revision(registry):
     g = flowmc.GraphBuilder()
     g.add("basic.number", id="n", value=1)
     graph = g.build()
-    rt = flowmc.Runtime()
+    rt = flowmc.Runtime(registry)
     first = rt.plan(graph)
     graph.nodes[0].pos = (500.0, 9.0)  # layout only
     assert rt.plan(graph) is first
@@ -134,14 +134,14 @@ def test_plan_is_computed_once_per_graph_revision():
     assert first.nodes["n"].params.value == 1  # the old plan did not change with the graph
 
 
-def test_interface_types_and_defaults_are_checked():
+def test_interface_types_and_defaults_are_checked(registry):
     g = flowmc.GraphBuilder()
     add = g.add("basic.add", id="add")
     blob = g.add("test.blob", id="blob")
     g.input("a", "Number", add.a, default="ten")
     g.input("p", "Path", add.b)
     g.output("o", "Number", blob.path)
-    issues = {(i.code, i.location): i.message for i in flowmc.validate(g.build())}
+    issues = {(i.code, i.location): i.message for i in flowmc.validate(g.build(), registry=registry)}
     assert issues == {
         ("interface-type", ("interface", "inputs", "a", "default")):
             "interface input 'a': default 'ten' is not a Number (defaults are Number, Bool or Text)",

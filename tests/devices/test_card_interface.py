@@ -10,9 +10,11 @@ import sys
 import numpy as np
 import pytest
 
-from flowmc.devices import card as card_module
-from flowmc.devices.card import MotionCard, known_devices, open_device, register_backend
+from flowmc.devices import backends
+from flowmc.devices.backends import DeviceOptions, SimOptions, known_devices, open_device, register_backend
+from flowmc.devices.card import MotionCard
 from flowmc.devices.log import Change, DeviceLog, Event
+from flowmc.devices.ranges import CARD_6050
 from flowmc.devices.sim import SimCard
 from flowmc.errors import DeviceError
 
@@ -40,27 +42,45 @@ def test_grbl_sim_streams_through_the_real_serial_code_and_stops_its_simulator(m
     assert simulator._thread is not None and not simulator._thread.is_alive()
 
 
-def test_linuxcnc_is_imported_only_when_asked_for(machine, monkeypatch):
+def test_backends_are_imported_only_when_opened(machine, monkeypatch):
+    code = ("import sys, flowmc.devices.backends as b; b.check_spec('linuxcnc'); b.known_devices(); "
+            "print(sorted(m for m in sys.modules if m.startswith(('flowmc.devices.linuxcnc', 'flowmc.devices.grbl', "
+            "'flowmc.devices.sim', 'serial'))))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.strip() == "[]", proc.stderr
     assert "linuxcnc" in known_devices()
-    monkeypatch.setitem(card_module._LAZY_BACKENDS, "linuxcnc", "flowmc.devices.linuxcnc.not_there")
-    with pytest.raises(DeviceError, match=r"the linuxcnc backend is not installed \(flowmc.devices.linuxcnc.not_there"):
+    monkeypatch.setitem(sys.modules, "flowmc.devices.linuxcnc.card", None)
+    with pytest.raises(DeviceError, match=r"the linuxcnc backend is not installed \(flowmc.devices.linuxcnc.card"):
         open_device("linuxcnc", machine)
 
 
 def test_a_registered_backend_gets_its_argument_and_options(machine, monkeypatch):
-    monkeypatch.setattr(card_module, "_BACKENDS", dict(card_module._BACKENDS))
-    monkeypatch.setattr(card_module, "_SPEC_HELP", dict(card_module._SPEC_HELP))
+    monkeypatch.setattr(backends, "_BACKENDS", dict(backends._BACKENDS))
+    monkeypatch.setattr(backends, "_SPEC_HELP", dict(backends._SPEC_HELP))
     seen = {}
 
-    def factory(argument, m, **options):
-        seen.update(argument=argument, machine=m, options=options)
+    def factory(argument, m, options, **kwargs):
+        seen.update(argument=argument, machine=m, options=options, kwargs=kwargs)
         return SimCard(m)
 
     register_backend("bench", factory, "bench:<slot>")
-    card = open_device("bench:2", machine, speed=3)
+    wanted = DeviceOptions(sim=SimOptions(closed_loop=True))
+    card = open_device("bench:2", machine, wanted, speed=3)
     assert isinstance(card, SimCard)
-    assert seen == {"argument": "2", "machine": machine, "options": {"speed": 3}}
+    assert seen == {"argument": "2", "machine": machine, "options": wanted, "kwargs": {"speed": 3}}
     assert "bench:<slot>" in known_devices()
+
+
+def test_typed_options_reach_the_card_they_belong_to(machine):
+    log = SimCard(machine).home()
+    options = DeviceOptions(sim=SimOptions(closed_loop=True, estop_input=3, analog="pwm", pen_output=4),
+                            resume=log.state)
+    with open_device("sim", machine, options) as card:
+        assert card.loop is not None and card.estop_input == 3 and card.ranges == CARD_6050.with_analog("pwm")
+        assert all(log.state["homed"]) and card.state()["homed"] == log.state["homed"]
+    with open_device("sim", machine, DeviceOptions(resume={**log.state, "device": "grbl-sim"})) as card:
+        assert not any(card.state()["homed"])  # a state from another kind of card is not taken
+    assert DeviceOptions(resume={"device": "grbl-sim"}).resume_for("sim") is None
 
 
 def test_device_log_digest_and_summary(machine):

@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pytest
 
-from flowmc.devices.card import open_device
+from flowmc.devices.backends import open_device
 from flowmc.devices.grbl import GrblStreamer, parse_status
 from flowmc.devices.grbl_program import ProgramLine, decimate, motion_gcode, text_gcode
 from flowmc.errors import DeviceError

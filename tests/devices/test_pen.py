@@ -158,9 +158,7 @@ def test_preflight_checks_tool_events_and_names_segments_of_untimed_streams_by_t
 
 def test_io_now_refuses_a_tool_event():
     import flowmc
-    from flowmc.nodes import load_all
 
-    load_all()
     g = flowmc.GraphBuilder(title="io now")
     now = g.add("device.io_now", id="now")
     g.input("signals", "Signal", now.signals)
@@ -224,7 +222,7 @@ def test_grbl_pen_commands_are_configurable_and_conflict_with_a_spindle_program(
 
 
 def test_grbl_board_receives_the_pen_commands(grbl_sim):  # noqa: F811
-    from flowmc.devices.card import open_device
+    from flowmc.devices.backends import open_device
 
     sim = grbl_sim(line_time=0.0005)
     path = plotter_path()

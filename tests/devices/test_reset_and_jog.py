@@ -6,14 +6,12 @@ import numpy as np
 import pytest
 
 import flowmc
-from flowmc.devices.card import open_device
+from flowmc.devices.backends import open_device
 from flowmc.devices.sim import SimCard
 from flowmc.errors import DeviceError
-from flowmc.nodes import load_all
 
 from device_programs import grbl_sim, line_trajectory, machine  # noqa: F401 (fixtures)
 
-load_all()
 
 
 # ---------------------------------------------------------------- reset

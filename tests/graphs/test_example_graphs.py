@@ -24,7 +24,7 @@ def run(name: str, **inputs):
     return result
 
 
-@pytest.mark.parametrize("path", EXAMPLES + sorted((GRAPHS / "lib").glob("*.flowmc.json")), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", EXAMPLES + sorted((REPO / "flowmc" / "lib").glob("*.flowmc.json")), ids=lambda p: p.name)
 def test_every_graph_has_a_title_and_a_description_and_saves_byte_identical(path):
     graph = flowmc.load(path)
     assert graph.title.strip() and len(graph.description.split()) >= 12

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from linuxcnc_programs import live_linuxcnc_processes, machine
 
-from flowmc.devices.card import open_device
+from flowmc.devices.backends import open_device
 from flowmc.devices.linuxcnc.card import trajectory_gcode
 from flowmc.errors import DeviceError
 from flowmc.motion.path import Line, Path

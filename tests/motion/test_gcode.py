@@ -318,6 +318,13 @@ def test_error_messages_quote_the_line():
         parse_gcode("G1 X1 F60\nG2 X20 R4\n")
 
 
+def test_error_messages_never_echo_terminal_escapes():
+    with pytest.raises(GcodeError) as err:
+        parse_gcode("G1 X1 F60\nG1 X\x1b]0;pwned\x07\x1b[2J\n")
+    text = str(err.value)
+    assert "\x1b" not in text and "\x07" not in text and "\\x1b]0;pwned\\x07\\x1b[2J" in text
+
+
 def test_the_earliest_problem_is_reported_whatever_kind_it_is():
     # A word outside the subset before a line that does not even read, and the other way round.
     with pytest.raises(GcodeError) as err:

@@ -8,11 +8,10 @@ import numpy as np
 import pytest
 
 import flowmc
-from flowmc import registry
 from flowmc.motion import nurbs, timediv
 from flowmc.motion.path import Dwell, EllipseArc, Line, NurbsCurve
 from flowmc.motion.path import Path as PathValue
-from flowmc.nodes import load_all
+from flowmc.plugins import default_registry
 from flowmc.registry import NodeType, Out
 
 REF = Path(__file__).resolve().parents[1] / "data" / "reference" / "nurbs_test_curve.json"
@@ -40,12 +39,11 @@ class MixedPathSource(NodeType):
         return {"path": PathValue([line, dwell, ell, curve])}
 
 
-@pytest.fixture(autouse=True)
-def test_registry():
-    load_all()
-    with registry.scoped():
-        registry.register(MixedPathSource)
-        yield
+@pytest.fixture(scope="module")
+def registry():
+    reg = default_registry().copy()
+    reg.add(MixedPathSource)
+    return reg
 
 
 @pytest.fixture(scope="module")
@@ -174,12 +172,12 @@ def test_time_division_default_machine_and_wired_param():
     assert traj.duration == pytest.approx(2 * math.sqrt(50.0 / 200.0), abs=0.004)
 
 
-def test_time_division_dwell_curves_and_signals():
+def test_time_division_dwell_curves_and_signals(registry):
     g = flowmc.GraphBuilder(title="mixed")
     src = g.add("test.mixed_path", id="src")
     interp = g.add("interp.time_division", id="interp", eps=0.001)
     g.wire(src.path, interp.path)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), registry=registry)
     assert result.ok, result.errors
     traj = result.output("interp", "trajectory")
     path = result.output("src", "path")

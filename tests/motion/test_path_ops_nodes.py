@@ -59,9 +59,9 @@ def test_image_contour_node_traces_a_picture_beside_the_graph(tmp_path, method):
 
 
 def test_image_contour_default_method_is_marching_squares():
-    from flowmc import registry
+    from flowmc.plugins import default_registry
 
-    schema = registry.describe("path.image_contour")["params_schema"]
+    schema = default_registry().describe("path.image_contour")["params_schema"]
     assert schema["properties"]["method"]["default"] == "marching_squares"
 
 

@@ -9,24 +9,15 @@ import numpy as np
 import pytest
 
 import flowmc
-from flowmc import registry
 from flowmc.errors import GraphError
 from flowmc.motion.lookahead import plan_lookahead, plan_stop_and_go
 from flowmc.motion.machine import Machine
 from flowmc.motion.metrics import trajectory_report
 from flowmc.motion.path import Path
-from flowmc.nodes import load_all
 
 REF = FsPath(__file__).resolve().parents[1] / "data" / "reference" / "paths" / "mixed.json"
 POINTS = [[float(x), float(y), 0.0] for x, y in json.loads(REF.read_text())["points"]]
 BOUND = json.loads(REF.read_text())["time_optimal_bound_s"]
-
-
-@pytest.fixture(autouse=True)
-def nodes():
-    load_all()
-    with registry.scoped():
-        yield
 
 
 def _graph(rule="blend", profile="trapezoid", stop_profile="trapezoid", points=POINTS):

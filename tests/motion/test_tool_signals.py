@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 import flowmc
-from flowmc import registry
 from flowmc.motion.contour import Contour, contours_to_path
 from flowmc.motion.lookahead import plan_lookahead, plan_stop_and_go
 from flowmc.motion.machine import Axis, Machine
@@ -18,10 +17,9 @@ from flowmc.motion.path import Dwell, Line, Path
 from flowmc.motion.path_steps import path_to_steps
 from flowmc.motion.signals import path_signals, step_start_times
 from flowmc.motion.trajectory import Signal
-from flowmc.nodes import load_all
-from flowmc.registry import NodeType, Out, register
+from flowmc.plugins import default_registry
+from flowmc.registry import NodeType, Out
 
-load_all()
 
 MACHINE = Machine(axes=(Axis(name="X", step_mm=0.01, vmax=50.0, amax=500.0, max_step_rate=20000.0),
                         Axis(name="Y", step_mm=0.01, vmax=50.0, amax=500.0, max_step_rate=20000.0),
@@ -139,25 +137,26 @@ def test_a_trailing_stepless_segment_signals_after_the_last_step():
 
 def test_interpolator_nodes_and_the_time_division_node_give_the_same_tool_sequence():
     path = plotter_path()
-    with registry.scoped():
-        @register
-        class PlotterPath(NodeType):
-            type_id = "test.plotter_path"
-            title = "Plotter path"
-            category = "Test"
-            description = "Two contours, pen up between them."
-            outputs = (Out("path", "Path", doc="The path"),)
+    registry = default_registry().copy()
 
-            def run(self, ctx, params):
-                return {"path": path}
+    @registry.add
+    class PlotterPath(NodeType):
+        type_id = "test.plotter_path"
+        title = "Plotter path"
+        category = "Test"
+        description = "Two contours, pen up between them."
+        outputs = (Out("path", "Path", doc="The path"),)
 
-        g = flowmc.GraphBuilder(title="pen everywhere")
-        src = g.add("test.plotter_path", id="src")
-        for node_id, type_id in (("pbp", "interp.point_by_point"), ("dda", "interp.dda"),
-                                 ("td", "interp.time_division"), ("la", "plan.lookahead")):
-            node = g.add(type_id, id=node_id)
-            g.wire(src.path, node.path)
-        result = flowmc.run(g.build())
+        def run(self, ctx, params):
+            return {"path": path}
+
+    g = flowmc.GraphBuilder(title="pen everywhere")
+    src = g.add("test.plotter_path", id="src")
+    for node_id, type_id in (("pbp", "interp.point_by_point"), ("dda", "interp.dda"),
+                             ("td", "interp.time_division"), ("la", "plan.lookahead")):
+        node = g.add(type_id, id=node_id)
+        g.wire(src.path, node.path)
+    result = flowmc.run(g.build(), registry=registry)
     assert result.ok, result.errors
     expected = [v for _, v in changes(path)]
     for node_id, port in (("pbp", "steps"), ("dda", "steps"), ("td", "trajectory"), ("la", "trajectory")):

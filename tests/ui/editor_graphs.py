@@ -5,9 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import flowmc
-from flowmc.nodes import load_all
 
-load_all()
 
 ROWS = [
     {"type": "line", "end": [40.0, 0.0, 0.0]},

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -18,6 +19,7 @@ import flowmc
 from flowmc.devices.session import DeviceSession
 from flowmc.ui import layout
 from flowmc.ui.app import Editor
+from flowmc.ui.text import unescape_md
 
 
 @pytest.fixture
@@ -43,7 +45,7 @@ def run(editor):
 
 
 def test_opens_the_graph_and_runs_it_with_status_colours(editor):
-    assert "example.flowmc.json" in editor.header.content and "●" not in editor.header.content
+    assert "example.flowmc.json" in unescape_md(editor.header.content) and "●" not in unescape_md(editor.header.content)
     assert len(editor.canvas.boxes) == 4 and len(editor.canvas.curves) == 3
     result = run(editor)
     assert result.ok
@@ -89,10 +91,10 @@ def test_invalid_param_shows_at_the_field_and_stops_the_run(editor):
     assert editor.state.selected_nodes == ["table"]
     editor.inspector.fields[("feed",)].value = -4.0
     assert editor.inspector.errors[("feed",)].visible
-    assert "greater than 0" in editor.inspector.errors[("feed",)].content
+    assert "greater than 0" in unescape_md(editor.inspector.errors[("feed",)].content)
     assert editor.run() is None
     assert editor.messages[-1][0] == "error" and "feed" in editor.messages[-1][1]
-    assert "1 problem" in editor.problems.summary.content
+    assert "1 problem" in unescape_md(editor.problems.summary.content)
     click(editor, "edge")
     editor.problems.buttons[0].value = True  # the problem's button selects its node
     assert editor.state.selected_nodes == ["table"]
@@ -122,7 +124,7 @@ def test_points_and_optional_numbers_are_text_fields(editor):
     editor.inspector.fields[("points",)].value = "0, 0, 0\n10, 5, 0\n20, 0, 0"
     assert editor.state.node("edge").params["points"] == [[0, 0, 0], [10, 5, 0], [20, 0, 0]]
     editor.inspector.fields[("points",)].value = "0, 0, 0\n10, x, 0"
-    assert "line 2" in editor.inspector.errors[("points",)].content
+    assert "line 2" in unescape_md(editor.inspector.errors[("points",)].content)
     assert len(editor.state.node("edge").params["points"]) == 3  # not stored: it did not parse
     click(editor, "both")
     editor.inspector.fields[("rapid_feed",)].value = "25"
@@ -142,9 +144,9 @@ def test_select_delete_undo_redo_and_fit(editor):
     click(editor, "edge")
     editor.canvas.click(*next(b for b in editor.canvas.boxes if b.node_id == "table").centre, toggle=True)
     assert editor.state.selected_nodes == ["edge", "table"]
-    assert "2 nodes" in editor.selection.summary.content
+    assert "2 nodes" in unescape_md(editor.selection.summary.content)
     editor.selection.delete_button.value = True
-    assert not editor.state.has_node("edge") and "●" in editor.header.content
+    assert not editor.state.has_node("edge") and "●" in unescape_md(editor.header.content)
     editor.edit_ops.value = "Undo"
     editor.edit_ops.value = "Undo"
     assert editor.state.has_node("edge") and wire in {(w.from_, w.to) for w in editor.state.graph.wires}
@@ -159,9 +161,9 @@ def test_select_delete_undo_redo_and_fit(editor):
 def test_files_save_save_as_open_upload_download_and_gcode(editor, tmp_path):
     files = editor.files
     editor.state.move_node("edge", (10, 300))
-    assert "●" in editor.header.content
+    assert "●" in unescape_md(editor.header.content)
     files.save_button.value = True
-    assert "●" not in editor.header.content
+    assert "●" not in unescape_md(editor.header.content)
     assert flowmc.load(tmp_path / "example.flowmc.json").node("edge").pos == (10.0, 300.0)
     files.save_as_name.value = "copy"
     files.save_as_button.value = True
@@ -177,7 +179,7 @@ def test_files_save_save_as_open_upload_download_and_gcode(editor, tmp_path):
     text = flowmc.dumps(flowmc.load(tmp_path / "example.flowmc.json")).replace('"dx": 5.0', '"dx": 7.0')
     assert files.upload("up.flowmc.json", text.encode())
     assert editor.state.path is None and editor.state.node("shift").params["dx"] == 7.0
-    assert "not saved" in editor.header.content
+    assert "not saved" in unescape_md(editor.header.content)
     files.open(files.open_choice.value)  # unsaved upload: asks first
     modal, discard = editor.pending_modal
     discard.value = True
@@ -195,7 +197,7 @@ def test_make_subgraph_open_it_and_come_back(editor, tmp_path):
     assert editor.state.issues() == []
     assert editor.selection.open_button.visible
     editor.selection.open_button.value = True
-    assert editor.state.path == tmp_path / "inner.flowmc.json" and "opened from example" in editor.header.content
+    assert editor.state.path == tmp_path / "inner.flowmc.json" and "opened from example" in unescape_md(editor.header.content)
     assert editor.selection.back_button.visible
     editor.state.set_param("shift", "dx", 9.0)
     editor.selection.back_button.value = True
@@ -264,8 +266,11 @@ def test_serve_prints_its_url_and_binds_localhost(tmp_path):
     proc = _serve([str(path), "--port", "0"], tmp_path)
     try:
         url = _url_line(proc)
-        assert url.startswith("http://127.0.0.1:")
+        assert url.startswith("http://127.0.0.1:") and "/?token=" in url
         assert urllib.request.urlopen(url, timeout=10).status == 200
+        with pytest.raises(urllib.error.HTTPError) as refused:  # without this launch's token: refused
+            urllib.request.urlopen(url.split("?")[0], timeout=10)
+        assert refused.value.code == 403
     finally:
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=20)
@@ -307,7 +312,7 @@ def test_failed_node_shows_its_error_on_the_canvas_and_in_the_list(tmp_path):
         assert labels["d/status"].startswith("✖") and "division by zero" in labels["d/status"]
         assert labels["n/status"].startswith("done · ") and labels["n/status"].endswith(" ms")
         assert labels["c/status"] == "skipped"
-        assert "1 node failed" in ed.problems.summary.content
+        assert "1 node failed" in unescape_md(ed.problems.summary.content)
         assert "division by zero" in ed.problems.buttons[0].label
         assert ed.messages[-1][0] == "error" and "division by zero" in ed.messages[-1][1]
         colours = ed.canvas._handles["body"].batched_colors

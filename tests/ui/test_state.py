@@ -9,7 +9,7 @@ import pytest
 from editor_graphs import ROWS, example_builder, example_file
 
 import flowmc
-from flowmc import registry
+from flowmc.plugins import default_registry
 from flowmc.errors import GraphError
 from flowmc.ui import layout
 from flowmc.ui.palette import palette_items, search
@@ -188,7 +188,7 @@ def test_wired_param_is_not_reported(state):
 
 
 def test_field_errors_walk_data_not_union_branches():
-    cls = registry.lookup("path.segment_table")
+    cls = default_registry().lookup("path.segment_table")
     errors = field_errors(cls.Params, {"rows": [{"type": "ellipse", "direction": "cw", "a": 0, "b": 1,
                                                   "start_angle": 0, "end_angle": -90}], "bogus": 1})
     assert set(errors) == {("rows", 0, "a"), ("bogus",)}
@@ -276,7 +276,7 @@ def test_palette_lists_types_library_graphs_and_graph_files(tmp_path):
     lib.mkdir()
     example_builder("pocket").save(lib / "pocket.flowmc.json")
     example_file(tmp_path, "part.flowmc.json")
-    items = palette_items(tmp_path, exclude=tmp_path / "example.flowmc.json")
+    items = palette_items(default_registry(), tmp_path, exclude=tmp_path / "example.flowmc.json")
     keys = {i.key for i in items}
     assert {"path.translate", "path.segment_table", "basic.add", "lib.pocket", "subgraph:part.flowmc.json"} <= keys
     assert search(items, "translate")[0].type_id == "path.translate"
@@ -359,17 +359,17 @@ def test_text_fields_parse_what_they_hold():
 def test_form_fields_follow_the_params_schema():
     from flowmc.ui.forms import form_fields, new_row
 
-    table = {f.name: f for f in form_fields(registry.lookup("path.segment_table").Params.model_json_schema())}
+    table = {f.name: f for f in form_fields(default_registry().lookup("path.segment_table").Params.model_json_schema())}
     assert (table["start"].kind, table["feed"].kind, table["rows"].kind) == ("vector3", "number", "rows")
     assert table["feed"].label == "feed (mm/s)" and table["feed"].minimum == 0
     assert set(table["rows"].variants) == {"line", "arc", "ellipse"}
     arc = new_row(table["rows"], "arc")
     assert arc["type"] == "arc" and arc["direction"] == "ccw" and arc["radius"] > 0
     assert new_row(table["rows"], "line", {"type": "arc", "feed": 3.0})["feed"] == 3.0
-    nurbs = {f.name: f for f in form_fields(registry.lookup("path.nurbs").Params.model_json_schema())}
+    nurbs = {f.name: f for f in form_fields(default_registry().lookup("path.nurbs").Params.model_json_schema())}
     assert nurbs["control_points"].kind == "points" and nurbs["knots"].kind == "optional"
     assert (nurbs["degree"].kind, nurbs["degree"].minimum, nurbs["degree"].maximum) == ("integer", 1, 7)
-    mirror = {f.name: f for f in form_fields(registry.lookup("path.mirror").Params.model_json_schema())}
+    mirror = {f.name: f for f in form_fields(default_registry().lookup("path.mirror").Params.model_json_schema())}
     assert mirror["axis"].kind == "dropdown" and mirror["axis"].options == ("X", "Y", "Z")
 
 

@@ -12,11 +12,10 @@ import flowmc
 from flowmc.devices.sim import SimCard
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
-from flowmc.nodes import load_all
 from flowmc.ui import view3d_data as data
 from flowmc.ui.view3d import ToolpathView, embed_html
+from flowmc.ui.text import unescape_md
 
-load_all()
 
 ROWS = [
     {"type": "line", "end": [30.0, 0.0, 0.0]},
@@ -77,10 +76,10 @@ def test_slider_moves_marker_to_the_sample_at_that_time(view, planned):
         view.time_slider.value = t
         k = round(t / traj.period)
         np.testing.assert_allclose(view.marker.position, traj.positions[k], atol=1e-9)
-        assert f"t = {k * traj.period:.4f}" in view.readout.content
+        assert f"t = {k * traj.period:.4f}" in unescape_md(view.readout.content)
         # the segment as users count it, with the table row it came from
         i = int(traj.segment[k])
-        assert view.readout.content.endswith(f" · segment {i + 1} (row {i + 1})")
+        assert unescape_md(view.readout.content).endswith(f" · segment {i + 1} (row {i + 1})")
     view.set_time(1e9)  # clamped to the end
     np.testing.assert_allclose(view.marker.position, traj.positions[-1])
 
@@ -95,7 +94,7 @@ def test_trajectory_colours_follow_speed(view, planned):
     assert tuple(colors[np.argmax(speed), 0]) == tuple(data.linear_rgb(data.SPEED_STOPS[-1][1]))  # fastest: red
     slow = colors[np.argmin(speed), 0].astype(int)
     assert slow[2] > slow[0]  # slowest: blue end of the scale
-    assert "40 mm/s" in view.info.content
+    assert "40 mm/s" in unescape_md(view.info.content)
 
 
 def test_speed_colour_scale_stops():
@@ -205,7 +204,7 @@ def test_nothing_to_show_hides_marker_and_playback(view, planned):
     view.show()
     assert view.nodes == {} and view.plots == {}
     assert not view.marker.visible and view.time_slider.disabled
-    assert "Nothing to show" in view.info.content
+    assert "Nothing to show" in unescape_md(view.info.content)
 
 
 def test_play_advances_the_slider_and_pause_stops_it(view, planned):
@@ -236,8 +235,8 @@ def test_envelope_keeps_peaks_when_decimating():
 def test_embed_html_and_close_frees_the_port():
     view = ToolpathView()
     port = view.server.get_port()
-    assert view.url == f"http://127.0.0.1:{port}"
-    assert embed_html(view.url).startswith(f'<iframe src="http://127.0.0.1:{port}"')
+    assert view.url == f"http://127.0.0.1:{port}/?token={view.guard.token}"
+    assert embed_html(view.url).startswith(f'<iframe src="http://127.0.0.1:{port}/?token={view.guard.token}"')
     assert '"' not in embed_html('x" onload="alert(1)').split('src="')[1].split('"')[0]
     view.close()
     view.close()
@@ -250,6 +249,6 @@ def test_a_view_on_all_interfaces_is_addressed_by_the_machine_name():
 
     view = ToolpathView(host="0.0.0.0", port=0)
     try:
-        assert view.url == f"http://{socket.gethostname()}:{view.server.get_port()}"
+        assert view.url == f"http://{socket.gethostname()}:{view.server.get_port()}/?token={view.guard.token}"
     finally:
         view.close()

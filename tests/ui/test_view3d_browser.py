@@ -10,11 +10,9 @@ from playwright.sync_api import sync_playwright
 
 import flowmc
 from flowmc.motion.machine import Machine
-from flowmc.nodes import load_all
 from flowmc.ui import view3d_data as data
 from flowmc.ui.view3d import ToolpathView
 
-load_all()
 
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]

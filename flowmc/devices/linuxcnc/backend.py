@@ -26,7 +26,7 @@ from flowmc.errors import DeviceError, GcodeError, LimitError
 from flowmc.motion.machine import Machine
 from flowmc.motion.trajectory import Trajectory
 
-__all__ = ["LinuxCNCRun", "StartState", "run_program", "render_ini", "home_position", "open_card", "SERVO_PERIOD",
+__all__ = ["LinuxCNCRun", "StartState", "run_program", "render_ini", "home_position", "SERVO_PERIOD",
            "MOTION_TRAVERSE", "MOTION_FEED", "MOTION_ARC"]
 
 HERE = Path(__file__).resolve().parent
@@ -225,12 +225,3 @@ def _make_run(data: np.ndarray, result: dict, servo_period: float, gcode: str) -
         messages=tuple(m["text"] for m in result.get("messages", [])),
         end_position=np.array(result["position"], dtype=float), gcode=gcode,
     )
-
-
-def open_card(argument: str, machine: Machine, **options):
-    """``open_device("linuxcnc", machine)``: the simulated LinuxCNC machine as a MotionCard."""
-    from flowmc.devices.linuxcnc.card import LinuxCNCCard
-
-    if argument:
-        raise DeviceError(f"'linuxcnc' takes no argument, got 'linuxcnc:{argument}'", where="device")
-    return LinuxCNCCard(machine, **options)

@@ -5,19 +5,17 @@ measures both the same way (flowmc.motion.metrics): cycle time of the feed moves
 largest deviation of each tool path from the other and from the programmed path, and
 peak velocity and acceleration per axis from finite differences of the samples.
 ``compare_path`` plans the path with flowmc's look-ahead planner (unless given a
-trajectory), runs it as G-code on LinuxCNC and compares. ``compare_main`` is
-``flowmc compare GRAPH --with linuxcnc``.
+trajectory), runs it as G-code on LinuxCNC and compares (``flowmc compare`` and the
+Compare node use it).
 """
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 
 import numpy as np
 
 from flowmc.devices.linuxcnc.backend import MOTION_ARC, MOTION_FEED, SERVO_PERIOD, LinuxCNCRun, run_program
-from flowmc.errors import FlowmcError, GraphError
 from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.machine import Machine, default_machine
 from flowmc.motion.metrics import contour_error, programmed_polyline
@@ -25,7 +23,7 @@ from flowmc.motion.path import Dwell, Path
 from flowmc.motion.table import Table
 from flowmc.motion.trajectory import Trajectory
 
-__all__ = ["Comparison", "compare_trajectories", "compare_path", "compare_main", "flowmc_feed_time"]
+__all__ = ["Comparison", "compare_trajectories", "compare_path", "flowmc_feed_time"]
 
 AXES = ("X", "Y", "Z")
 
@@ -112,51 +110,3 @@ def compare_path(path: Path, machine: Machine | None = None, *, tolerance: float
     gcode = path_to_gcode(path, blend_tolerance=tolerance, comment="flowmc compare")
     run = run_program(gcode, machine, servo_period=servo_period, name="compare.ngc")
     return Comparison(compare_trajectories(flowmc, run, path), flowmc, run, gcode)
-
-
-def _graph_values(graph_file: str):
-    """The last Path and Machine the graph produces, and its look-ahead plan if it has one."""
-    from flowmc.runtime.executor import run
-
-    result = run(graph_file)
-    if not result.ok:
-        raise GraphError("the graph failed: " + "; ".join(result.errors), where=graph_file)
-    path = machine = plan = None
-    for node_id in result.order:
-        node = result.nodes[node_id]
-        for value in node.outputs.values():
-            if isinstance(value, Path):
-                path = value
-            elif isinstance(value, Machine):
-                machine = value
-        traj = node.outputs.get("trajectory")
-        if isinstance(traj, Trajectory) and _node_type(graph_file, node_id) == "plan.lookahead":
-            plan = traj
-    if path is None:
-        raise GraphError("the graph produces no Path to compare", where=graph_file)
-    return path, machine, plan
-
-
-def _node_type(graph_file: str, node_id: str) -> str | None:
-    from flowmc.graph import load
-
-    for node in load(graph_file).nodes:
-        if node.id == node_id:
-            return node.type
-    return None
-
-
-def compare_main(args) -> int:
-    """``flowmc compare GRAPH --with linuxcnc``: print the side-by-side table; 1 when something failed."""
-    with_ = getattr(args, "with_", "linuxcnc")
-    if with_ != "linuxcnc":
-        raise FlowmcError(f"unknown reference {with_!r}; only 'linuxcnc'", where="compare")
-    path, machine, plan = _graph_values(args.graph)
-    tolerance = float(getattr(args, "tolerance", None) or 0.05)
-    comparison = compare_path(path, machine, tolerance=tolerance, flowmc=plan)
-    source = "the graph's look-ahead plan" if plan is not None else "flowmc's look-ahead planner"
-    print(f"{args.graph}: {source} vs LinuxCNC (G64 P{tolerance:g}, servo period "
-          f"{comparison.linuxcnc.servo_period * 1e3:g} ms)")
-    print(comparison.text())
-    sys.stdout.flush()
-    return 0

@@ -2,7 +2,8 @@
 
 Two ways in: the ``subgraph`` type with a ``file`` param (relative to the using graph's
 folder, never leaving the root folder), and library types ``lib.<stem>`` for the graphs in
-``<repo>/graphs/lib/`` and in a ``lib/`` folder beside the graph (which wins on a clash).
+the library folders a ``GraphLibrary`` is given and in a ``lib/`` folder beside the graph
+(which wins on a clash). Both bind through the runtime's ``GraphBinder`` protocol.
 A graph that uses itself, directly or through others, is refused with the chain named.
 Nothing is imported or executed from a file: a sub-graph is only more nodes of known types.
 """
@@ -10,34 +11,23 @@ Nothing is imported or executed from a file: a sub-graph is only more nodes of k
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterable
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
-import flowmc
 from flowmc.errors import GraphError, NodeError
 from flowmc.graph import Graph, Issue, dumps, load
-from flowmc.registry import REQUIRED, In, NodeType, NoParams, Out, Ports
+from flowmc.ports import REQUIRED, In, Out, Ports
+from flowmc.registry import NodeType, NoParams, Registry, register
+from flowmc.runtime.binding import BindContext, Binding
 from flowmc.runtime.context import Site, resolve_inside
 from flowmc.runtime.schedule import Plan, make_plan
 
-__all__ = ["Subgraph", "LibraryGraph", "Binding", "PACKAGE_LIB", "library_type", "library_types", "interface_ports"]
+__all__ = ["Subgraph", "LibraryGraph", "GraphLibrary", "interface_ports"]
 
-PACKAGE_LIB = Path(flowmc.__file__).resolve().parents[1] / "graphs" / "lib"
 SUFFIX = ".flowmc.json"
-
-
-@dataclass(frozen=True)
-class Binding:
-    """A sub-graph file bound at one place: its ports, purity, cache key part and inner plan."""
-
-    ports: Ports
-    pure: bool
-    key: str
-    plan: Plan
-    deps: dict[Path, tuple[int, int]]
 
 
 def interface_ports(graph: Graph, plan: Plan | None = None) -> Ports:
@@ -62,7 +52,7 @@ def _stat(path: Path) -> tuple[int, int]:
     return st.st_mtime_ns, st.st_size
 
 
-def bind_file(path: Path, site: Site, node_id: str) -> Binding:
+def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph, Site], Plan]) -> Binding:
     """Load, check and plan the sub-graph at ``path`` (already inside the root). GraphError with issues."""
     loc = ("nodes", node_id, "params", "file")
     shown = site.name(path)
@@ -80,7 +70,7 @@ def bind_file(path: Path, site: Site, node_id: str) -> Binding:
         raise fail("subgraph", f"sub-graph {shown}: {detail}") from None
     if graph.interface is None:
         raise fail("subgraph", f"sub-graph {shown} declares no interface, so it cannot be used as a node")
-    plan = make_plan(graph, Site(path.parent, site.root, site.chain + (path,)))
+    plan = plan_graph(graph, Site(path.parent, site.root, site.chain + (path,)))
     if plan.issues:
         issues = [
             Issue(i.code if i.code == "subgraph-recursion" else "subgraph", loc, f"node {node_id!r}: sub-graph {shown}: {i.message}")
@@ -107,9 +97,8 @@ class SubgraphParams(BaseModel):
     file: str = Field(description="Graph file with an interface, relative to this graph's folder")
 
 
+@register
 class Subgraph(NodeType):
-    """Registered by ``flowmc.nodes.load_all``."""
-
     type_id = "subgraph"
     title = "Sub-graph"
     category = "Graph"
@@ -118,13 +107,13 @@ class Subgraph(NodeType):
     fixed_params = ("file",)
 
     @classmethod
-    def bind_site(cls, params: SubgraphParams, site: Site, node_id: str) -> Binding:
+    def bind_graph(cls, params: SubgraphParams, at: BindContext) -> Binding:
         try:
-            path = resolve_inside(site.root, site.graph_dir, params.file)
+            path = resolve_inside(at.site.root, at.site.graph_dir, params.file)
         except GraphError as exc:
-            issue = Issue("path-escape", ("nodes", node_id, "params", "file"), f"node {node_id!r}: file {exc.message}")
+            issue = Issue("path-escape", ("nodes", at.node_id, "params", "file"), f"node {at.node_id!r}: file {exc.message}")
             raise GraphError(issue.message, issues=[issue]) from None
-        return bind_file(path, site, node_id)
+        return bind_file(path, at.site, at.node_id, at.plan)
 
     def run(self, ctx: Any, params: SubgraphParams, **inputs: Any) -> dict[str, Any]:
         return _run_bound(ctx, inputs, params.file)
@@ -144,8 +133,8 @@ class LibraryGraph(NodeType):
     lib_dir: Path
 
     @classmethod
-    def bind_site(cls, params: BaseModel, site: Site, node_id: str) -> Binding:
-        binding = bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, site.chain), node_id)
+    def bind_graph(cls, params: BaseModel, at: BindContext) -> Binding:
+        binding = bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, at.site.chain), at.node_id, at.plan)
         data = tuple(p for p in binding.ports.inputs if p.name not in cls.Params.model_fields)
         return replace(binding, ports=Ports(data, binding.ports.outputs))
 
@@ -169,77 +158,80 @@ def _split_scalars(ports: Ports, stem: str) -> tuple[type[BaseModel], Ports]:
 
 # ---------------------------------------------------------------- library folders
 
-_lib_cache: dict[Path, tuple[tuple[int, int], type[LibraryGraph]]] = {}
+class GraphLibrary:
+    """``lib.<stem>`` types for the graph files in ``folders`` and in a ``lib/`` beside the graph.
 
+    A registry is given one (``Registry(library=GraphLibrary([...]))``) and asks it for
+    ``lib.*`` ids; types are built from the files on demand and rebuilt when a file changes.
+    """
 
-def _lib_dirs(graph_dir: Any) -> list[Path]:
-    """Library folders seen from a graph: ``lib/`` beside it, its own folder when that is a
-    ``lib/`` (library graphs use their siblings), then the package library."""
-    dirs = []
-    if graph_dir is not None:
-        here = Path(graph_dir).resolve()
-        for candidate in (here / "lib", here if here.name == "lib" else None):
-            if candidate is not None and candidate.is_dir() and candidate not in dirs:
-                dirs.append(candidate)
-    if PACKAGE_LIB.is_dir() and PACKAGE_LIB not in dirs:
-        dirs.append(PACKAGE_LIB)
-    return dirs
+    def __init__(self, folders: Iterable[Path] = ()) -> None:
+        self.folders = [Path(f).resolve() for f in folders]
+        self._cache: dict[Path, tuple[int, tuple[int, int], type[LibraryGraph]]] = {}  # path -> (generation, stat, type)
+        self._building: set[Path] = set()
 
+    def _dirs(self, graph_dir: Path | None) -> list[Path]:
+        """Library folders seen from a graph: ``lib/`` beside it, its own folder when that is a
+        ``lib/`` (library graphs use their siblings), then the given folders."""
+        dirs: list[Path] = []
+        if graph_dir is not None:
+            here = Path(graph_dir).resolve()
+            for candidate in (here / "lib", here if here.name == "lib" else None):
+                if candidate is not None and candidate.is_dir() and candidate not in dirs:
+                    dirs.append(candidate)
+        dirs += [f for f in self.folders if f.is_dir() and f not in dirs]
+        return dirs
 
-_building: set[Path] = set()
-
-
-def _lib_class(path: Path, lib_dir: Path) -> type[LibraryGraph]:
-    """The ``lib.<stem>`` type for a file, rebuilt when the file changes."""
-    stat = _stat(path)
-    cached = _lib_cache.get(path)
-    if cached is not None and cached[0] == stat:
-        return cached[1]
-    stem = path.name[: -len(SUFFIX)]
-    title, description, ports = stem, f"Library graph {stem}", Ports((), ())
-    params: type[BaseModel] = NoParams
-    building = path in _building  # library graphs using each other: binding reports the recursion
-    _building.add(path)
-    try:
-        graph = load(path)
-        title = graph.title or stem
-        description = (graph.description.strip().splitlines() or [description])[0]
+    def _class(self, path: Path, lib_dir: Path, registry: Registry) -> type[LibraryGraph]:
+        """The ``lib.<stem>`` type for a file, rebuilt when the file or the registry changes."""
+        stat = _stat(path)
+        cached = self._cache.get(path)
+        if cached is not None and cached[:2] == (registry.generation, stat):
+            return cached[2]
+        stem = path.name[: -len(SUFFIX)]
+        title, description, ports = stem, f"Library graph {stem}", Ports((), ())
+        params: type[BaseModel] = NoParams
+        building = path in self._building  # library graphs using each other: binding reports the recursion
+        self._building.add(path)
+        try:
+            graph = load(path)
+            title = graph.title or stem
+            description = (graph.description.strip().splitlines() or [description])[0]
+            if not building:
+                plan_graph = lambda g, s: make_plan(g, s, registry)  # noqa: E731
+                params, ports = _split_scalars(bind_file(path, Site(lib_dir, lib_dir), "lib", plan_graph).ports, stem)
+        except GraphError:
+            pass  # described without ports; using it reports the problem on the node
+        finally:
+            if not building:
+                self._building.discard(path)
+        attrs = {"type_id": f"lib.{stem}", "title": title, "description": description, "Params": params,
+                 "inputs": ports.inputs, "outputs": ports.outputs, "file_path": path, "lib_dir": lib_dir,
+                 "__module__": __name__}
+        cls = type(f"Lib_{stem}", (LibraryGraph,), attrs)
         if not building:
-            params, ports = _split_scalars(bind_file(path, Site(lib_dir, lib_dir), "lib").ports, stem)
-    except GraphError:
-        pass  # described without ports; using it reports the problem on the node
-    finally:
-        if not building:
-            _building.discard(path)
-    attrs = {"type_id": f"lib.{stem}", "title": title, "description": description, "Params": params,
-             "inputs": ports.inputs,
-             "outputs": ports.outputs, "file_path": path, "lib_dir": lib_dir, "__module__": __name__}
-    cls = type(f"Lib_{stem}", (LibraryGraph,), attrs)
-    if not building:
-        _lib_cache[path] = (stat, cls)
-    return cls
+            self._cache[path] = (registry.generation, stat, cls)
+        return cls
 
-
-def library_type(type_id: str, graph_dir: Any = None) -> type[LibraryGraph] | None:
-    """The type for ``lib.<stem>``: ``<graph_dir>/lib`` first, then the package library."""
-    stem = type_id[len("lib."):]
-    if not stem or "/" in stem or "\\" in stem or stem.startswith("."):
+    def type(self, type_id: str, graph_dir: Path | None, registry: Registry) -> type[LibraryGraph] | None:
+        """The type for ``lib.<stem>``: ``<graph_dir>/lib`` first, then the library folders."""
+        stem = type_id[len("lib."):]
+        if not stem or "/" in stem or "\\" in stem or stem.startswith("."):
+            return None
+        for lib_dir in self._dirs(graph_dir):
+            if (lib_dir / f"{stem}{SUFFIX}").is_file():
+                try:  # a symlink out of the library folder is not a library graph
+                    return self._class(resolve_inside(lib_dir, lib_dir, f"{stem}{SUFFIX}"), lib_dir, registry)
+                except GraphError:
+                    return None
         return None
-    for lib_dir in _lib_dirs(graph_dir):
-        if (lib_dir / f"{stem}{SUFFIX}").is_file():
-            try:  # a symlink out of the library folder is not a library graph
-                return _lib_class(resolve_inside(lib_dir, lib_dir, f"{stem}{SUFFIX}"), lib_dir)
-            except GraphError:
-                return None
-    return None
 
-
-def library_types(graph_dir: Any = None) -> dict[str, type[LibraryGraph]]:
-    found: dict[str, type[LibraryGraph]] = {}
-    for lib_dir in reversed(_lib_dirs(graph_dir)):  # the local lib/ overrides the package one
-        for path in sorted(lib_dir.glob(f"*{SUFFIX}")):
-            if not path.resolve().is_relative_to(lib_dir):
-                continue
-            cls = _lib_class(path.resolve(), lib_dir)
-            found[cls.type_id] = cls
-    return dict(sorted(found.items()))
+    def types(self, graph_dir: Path | None, registry: Registry) -> dict[str, type[LibraryGraph]]:
+        found: dict[str, type[LibraryGraph]] = {}
+        for lib_dir in reversed(self._dirs(graph_dir)):  # the local lib/ overrides the package one
+            for path in sorted(lib_dir.glob(f"*{SUFFIX}")):
+                if not path.resolve().is_relative_to(lib_dir):
+                    continue
+                cls = self._class(path.resolve(), lib_dir, registry)
+                found[cls.type_id] = cls
+        return dict(sorted(found.items()))

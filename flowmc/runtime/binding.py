@@ -1,0 +1,52 @@
+"""The protocol for node types that hold a graph: sub-graphs now, structure bodies later.
+
+Such a type binds its graph when the outer graph is planned: it loads and plans it (with the
+``plan`` function it is handed, so the same registry and checks apply) and returns a
+``Binding``: its ports, purity, a cache-key part and the inner plan. At run time the node finds
+that plan as ``ctx.binding`` and runs it on ``ctx.child_runtime()``. The runtime knows only this
+protocol, never the classes that implement it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Protocol, runtime_checkable
+
+from flowmc.ports import Ports
+from flowmc.runtime.context import Site
+
+__all__ = ["Binding", "BindContext", "GraphBinder", "binder_of"]
+
+
+@dataclass(frozen=True)
+class Binding:
+    """A held graph bound at one place: its ports, purity, cache-key part and inner plan."""
+
+    ports: Ports
+    pure: bool
+    key: str  # content of the bound graph (and of what it binds): part of the node's cache key
+    plan: Any  # the inner Plan, handed to the node at run time as ctx.binding
+    deps: dict[Path, tuple[int, int]]  # files read and their (mtime_ns, size): re-plan when one changes
+
+
+@dataclass(frozen=True)
+class BindContext:
+    """Where a node binds: the outer graph's site, the node's id, and how to plan a graph."""
+
+    site: Site
+    node_id: str
+    plan: Callable[[Any, Site], Any]  # plan(graph, site) -> Plan, with the outer plan's registry
+
+
+@runtime_checkable
+class GraphBinder(Protocol):
+    """A node type whose ports come from a graph it binds at plan time (raises GraphError with issues)."""
+
+    @classmethod
+    def bind_graph(cls, params: Any, at: BindContext) -> Binding: ...
+
+
+def binder_of(cls: type) -> type[GraphBinder] | None:
+    """``cls`` when it implements the protocol, else None."""
+    return cls if callable(getattr(cls, "bind_graph", None)) else None  # type: ignore[return-value]
