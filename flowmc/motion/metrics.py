@@ -27,6 +27,7 @@ __all__ = [
     "programmed_polyline",
     "contour_error",
     "coverage_error",
+    "feed_ratio",
     "feed_fluctuation",
     "trajectory_report",
 ]
@@ -179,6 +180,23 @@ def coverage_error(positions: np.ndarray, polyline: np.ndarray, spacing: float =
     tool = tool[np.r_[True, np.any(np.diff(tool, axis=0) != 0, axis=1)]]  # rests add nothing
     d, _ = _PolylineDistance(tool)(points)
     return float(d.max())
+
+
+def feed_ratio(positions: np.ndarray, period: float, path: Path, moving=None) -> float:
+    """Largest path speed over the programmed feed, each sampled chord judged by the feed of the programmed
+    segment nearest its middle (rapids left out: they run at the machine's rapid rate). ``moving``: a mask
+    of the chords to judge (default: every chord that moves)."""
+    p = np.asarray(positions, dtype=float)
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) / period
+    keep = speed > 0 if moving is None else (speed > 0) & np.asarray(moving, dtype=bool)
+    if not keep.any():
+        return 0.0
+    pts, seg = path.sample(1e-3)
+    _, owner = _PolylineDistance(pts[:, :p.shape[1]])(0.5 * (p[1:] + p[:-1])[keep])
+    segs = path.segments
+    feed = np.array([s.feed for s in segs], dtype=float)[seg[owner]]
+    rapid = np.array([s.rapid for s in segs], dtype=bool)[seg[owner]]
+    return float(np.max(np.where(rapid, 0.0, speed[keep] / feed)))
 
 
 def feed_fluctuation(positions: np.ndarray, period: float, feed, lengths=None) -> dict:
