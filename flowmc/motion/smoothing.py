@@ -19,9 +19,10 @@ across many segments. Here the smoothing works on *runs*, not corners:
    where it joins the rest of the path and inside.
 
 The fit is a penalised least-squares B-spline (a P-spline: Eilers and Marx, "Flexible smoothing with
-B-splines and penalties", Statistical Science 11, 1996) with a penalty on the third differences of
-the control points (the integral of |p'''|^2, which keeps curvature and its rate of change low:
-what the feed and per-axis jerk limits pay for). The tolerance is held as an L-infinity bound by
+B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of
+the control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or,
+for jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of
+curvature: what per-axis jerk pays for). The tolerance is held as an L-infinity bound by
 iteratively re-weighting the data points that stray (the approach to approximation within a given
 tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4, with a smoothing penalty
 instead of knot insertion); it follows the global micro-segment smoothing of CNC tool paths by
@@ -644,7 +645,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         pending, h, devs = fits, _KNOT_TOL * tolerance, []
         for attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
             fit = _RunFitter(raw, runs.ua[pending], runs.ub[pending], runs.free_a[pending], runs.free_b[pending],
-                             tol_fit, h).fit()
+                             tol_fit, h, order=3 if g2 else 2).fit()
             ncp = np.diff(np.r_[fit.offset, len(fit.coef)])
             for i, r in enumerate(pending):
                 if fit.ok[i]:

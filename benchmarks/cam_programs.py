@@ -1,0 +1,222 @@
+"""flowmc's planner against LinuxCNC on real CAM code and the reference paths, measured in the same run.
+
+Programs: LinuxCNC's own sample programs flowsnake, 3D_Chips, spiral, arcspiral and 3dtest (Debian's
+linuxcnc-uspace installs them in /usr/share/linuxcnc/ncfiles) and the four reference paths. The
+sample programs need more of the G-code language (O-words, parameters, polar and relative moves) than
+flowmc's reader has, so LinuxCNC's own interpreter (rs274) reads them and its canonical moves become
+the Path both sides run. Every feed is set to F12000 mm/min (200 mm/s; 3D_Chips asks for more, the
+axes allow 200), rapids move at 200 mm/s.
+
+Both sides: per-axis 200 mm/s, 200 mm/s^2 (and 5000 mm/s^3 for flowmc's S-curve), servo period and
+setpoint period 1 ms, corner tolerance 0.05 mm (LinuxCNC: G64 P0.05 with its default Q; flowmc's
+blend tolerance). LinuxCNC runs through flowmc's own LinuxCNC backend (the real simulator, samples
+every servo period). Times are feed moves only, as LinuxCNC counts them. Every other figure comes from
+the raw 1 ms samples: deviation both ways (samples to the programmed path, and the path to the
+samples), peak per-axis velocity, acceleration and jerk over the limit. ``TOPP-RA`` is the per-axis
+time-optimal parameterisation of flowmc's own smoothed curve (benchmarks/toppra_reference.py, total
+time including rapids), so ``/topp`` says how close flowmc's time law comes to optimal on its geometry.
+
+    python3 benchmarks/cam_programs.py [--no-linuxcnc] [--no-toppra] [NAME ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path as FsPath
+
+import numpy as np
+
+from flowmc.devices.linuxcnc.backend import run_program
+from flowmc.devices.linuxcnc.compare import flowmc_feed_time
+from flowmc.devices.linuxcnc.rs274 import ARC, TRAVERSE, run_rs274
+from flowmc.motion.gcode_write import path_to_gcode
+from flowmc.motion.lookahead import plan_stop_and_go
+from flowmc.motion.machine import Axis, Machine
+from flowmc.motion.metrics import contour_error, coverage_error, programmed_polyline
+from flowmc.motion.path import Arc, Line, Path
+from flowmc.motion.planner import plan_smooth
+
+ROOT = FsPath(__file__).resolve().parents[1]
+NCFILES = FsPath("/usr/share/linuxcnc/ncfiles")
+CAM = ("flowsnake", "3D_Chips", "spiral", "arcspiral", "3dtest")
+REFERENCE = ("mixed", "star10", "zigzag40", "ellipse200")
+FEED = 200.0  # mm/s: F12000 mm/min
+TOL = 0.05
+JERK = 5000.0
+
+
+def machine(jerk: float = JERK, period: float = 0.001) -> Machine:
+    return Machine(axes=tuple(Axis(name=n, min=-500, max=500, vmax=200, amax=200, jmax=jerk) for n in "XYZ"),
+                   period=period)
+
+
+def canon_path(name: str) -> Path:
+    """The program as LinuxCNC's interpreter moves: its canonical lines and arcs, F12000, rapids at 200 mm/s."""
+    prog = run_rs274((NCFILES / f"{name}.ngc").read_text(), name=f"{name}.ngc")
+    segs = []
+    for k in range(len(prog)):
+        s, e, src = prog.start[k], prog.end[k], f"{name}.ngc:{prog.line[k]}"
+        if prog.kind[k] != ARC:
+            if np.linalg.norm(e - s) > 1e-9:
+                rapid = prog.kind[k] == TRAVERSE
+                segs.append(Line(s, e, feed=FEED, rapid=rapid, tool_down=not rapid, source=src))
+            continue
+        # rs274 accepts arcs whose end radius differs a little from the start's; centre them between
+        axis = int(prog.normal_axis[k])
+        plane = [i for i in range(3) if i != axis]
+        c = prog.center[k].copy()
+        chord = e[plane] - s[plane]
+        if np.linalg.norm(chord) > 1e-9:
+            n = np.array([-chord[1], chord[0]]) / np.linalg.norm(chord)
+            mid = 0.5 * (s[plane] + e[plane])
+            c[plane] = mid + n * np.dot(c[plane] - mid, n)
+        turn = int(prog.turn[k])
+        segs.append(Arc(s, e, c, normal_axis=axis, ccw=turn > 0, turns=abs(turn) - 1, feed=FEED, source=src))
+    return Path(segs)
+
+
+def reference_path(name: str) -> Path:
+    data = json.loads((ROOT / "tests" / "data" / "reference" / "paths" / f"{name}.json").read_text())
+    pts = np.array(data["points"], dtype=float)
+    return Path.polyline(np.c_[pts, np.zeros(len(pts))], feed=FEED)
+
+
+def sampled(traj_positions: np.ndarray, period: float, limit: float) -> dict:
+    d, out = traj_positions, {}
+    for name in ("v", "a", "j"):
+        d = np.diff(d, axis=0) / period
+        out[name] = float(np.abs(d).max())
+    return out
+
+
+def measure(positions: np.ndarray, period: float, path: Path) -> dict:
+    programmed = programmed_polyline(path)
+    out = sampled(positions, period, 200.0)
+    out["dev_to_path"] = contour_error(positions, programmed)
+    out["dev_from_path"] = coverage_error(positions, programmed)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("names", nargs="*", default=[*CAM, *REFERENCE])
+    ap.add_argument("--no-linuxcnc", action="store_true")
+    ap.add_argument("--no-toppra", action="store_true")
+    ap.add_argument("--no-cold", action="store_true")
+    args = ap.parse_args()
+    if not args.no_toppra:
+        sys.path.insert(0, str(FsPath(__file__).parent))
+        from toppra_reference import toppra_time
+    m = machine()
+    rows = []
+    for name in args.names:
+        path = canon_path(name) if name in CAM else reference_path(name)
+        t0 = time.perf_counter()
+        trap = plan_smooth(path, m, tolerance=TOL)
+        wall_trap = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        scurve = plan_smooth(path, m, tolerance=TOL, profile="scurve")
+        wall_s = time.perf_counter() - t0
+        row = {"name": name, "segments": len(path), "wall_trap": wall_trap, "wall_scurve": wall_s,
+               "trap_feed": flowmc_feed_time(trap.trajectory, path), "trap_total": trap.cycle_time,
+               "s_feed": flowmc_feed_time(scurve.trajectory, path), "s_total": scurve.cycle_time,
+               "trap": measure(trap.trajectory.positions, 0.001, path),
+               "s": measure(scurve.trajectory.positions, 0.001, path)}
+        if not args.no_toppra:
+            row["topp"] = toppra_time(trap, m, FEED, grid_step=0.05 if len(path) > 200 else 0.01)
+        if not args.no_linuxcnc:
+            run = run_program(path_to_gcode(path, blend_tolerance=TOL), m, timeout=1200.0, name=f"{name}.ngc")
+            first = max(int(np.flatnonzero(np.isin(run.motion_type, (2, 3)))[0]) - 1, 0)
+            row["lcnc_feed"] = run.feed_time
+            row["lcnc"] = measure(run.samples[first:], run.servo_period, path)
+        rows.append(row)
+        print(json.dumps({k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()
+                          if not isinstance(v, dict)}), flush=True)
+    report(rows, args)
+    if not args.no_cold:
+        cold_start()
+
+
+def cold_start(name: str = "3D_Chips", runs: int = 3) -> None:
+    """Wall time of rs274 interpreting the program, beside a fresh Python process that imports flowmc,
+    reads rs274's canonical moves (saved beforehand) and plans them (trapezoid): medians of ``runs``."""
+    import statistics
+    import tempfile
+
+    from flowmc.devices.linuxcnc.rs274 import number_lines
+
+    with tempfile.TemporaryDirectory() as tmp:
+        prog = FsPath(tmp) / f"{name}.ngc"
+        prog.write_text(number_lines((NCFILES / f"{name}.ngc").read_text()))
+        canon = FsPath(tmp) / "canon.txt"
+        table = ROOT / "flowmc" / "devices" / "linuxcnc" / "config" / "tool.tbl"
+        cmd = ["rs274", "-t", str(table), "-g", str(prog)]
+        canon.write_text(subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL).stdout)
+        script = (f"import sys; sys.path.insert(0, {str(FsPath(__file__).parent)!r}); import cam_programs as c; "
+                  f"from flowmc.devices.linuxcnc.rs274 import parse_canon; "
+                  f"c.run_rs274 = lambda text, name: parse_canon(open({str(canon)!r}).read(), name=name); "
+                  f"from flowmc.motion.planner import plan_smooth; "
+                  f"plan_smooth(c.canon_path({name!r}), c.machine(), tolerance=c.TOL)")
+        timings = {"rs274": [], "flowmc": []}
+        for _ in range(runs):
+            for key, argv in (("rs274", cmd), ("flowmc", [sys.executable, "-c", script])):
+                t0 = time.perf_counter()
+                subprocess.run(argv, capture_output=True, stdin=subprocess.DEVNULL, check=True)
+                timings[key].append(time.perf_counter() - t0)
+    rs, fm = statistics.median(timings["rs274"]), statistics.median(timings["flowmc"])
+    print(f"\nCold process, {name}: rs274 interprets it in {rs:.2f} s; flowmc imports, reads rs274's moves and "
+          f"plans them (trapezoid, T = 1 ms) in {fm:.2f} s (medians of {runs})")
+
+
+def report(rows: list[dict], args) -> None:
+    print("\nTrapezoid, per-axis 200 mm/s and 200 mm/s^2, tolerance 0.05 mm, T = 1 ms (feed moves, s)\n")
+    head = (f"{'program':<11}{'segs':>6}{'flowmc':>9}{'LinuxCNC':>10}{'ratio':>7}{'TOPP-RA':>9}{'/topp':>7}"
+            f"{'dev->':>8}{'dev<-':>8}{'LC dev->':>9}{'LC dev<-':>9}{'a/amax':>8}{'LC a':>7}{'plan s':>8}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        lc = r.get("lcnc_feed", float("nan"))
+        lcd = r.get("lcnc", {})
+        print(f"{r['name']:<11}{r['segments']:>6}{r['trap_feed']:>9.3f}{lc:>10.3f}{r['trap_feed'] / lc:>7.3f}"
+              f"{r.get('topp', float('nan')):>9.3f}{r['trap_total'] / r.get('topp', float('nan')):>7.3f}"
+              f"{r['trap']['dev_to_path']:>8.4f}{r['trap']['dev_from_path']:>8.4f}"
+              f"{lcd.get('dev_to_path', float('nan')):>9.4f}{lcd.get('dev_from_path', float('nan')):>9.4f}"
+              f"{r['trap']['a'] / 200:>8.3f}{lcd.get('a', float('nan')) / 200:>7.2f}{r['wall_trap']:>8.2f}")
+    print("\nS-curve, per-axis jerk 5000 mm/s^3 (and the same limits), T = 1 ms\n")
+    head = f"{'program':<11}{'S-curve s':>10}{'/ trap':>8}{'j/jmax':>8}{'dev->':>8}{'dev<-':>8}{'plan s':>8}"
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        print(f"{r['name']:<11}{r['s_feed']:>10.3f}{r['s_feed'] / r['trap_feed']:>8.3f}{r['s']['j'] / JERK:>8.3f}"
+              f"{r['s']['dev_to_path']:>8.4f}{r['s']['dev_from_path']:>8.4f}{r['wall_scurve']:>8.2f}")
+    if "mixed" in [r["name"] for r in rows]:
+        m4 = machine(500.0, 0.004)
+        path = reference_path("mixed")
+        s500 = plan_smooth(path, m4, tolerance=TOL, profile="scurve")
+        base = plan_stop_and_go(path, m4, profile="trapezoid")
+        j = float(np.abs(np.diff(s500.trajectory.positions, 3, axis=0)).max()) / 0.004**3
+        print(f"\nmixed at j = 500 mm/s^3, T = 4 ms: S-curve {s500.cycle_time:.3f} s, stop-and-go trapezoid "
+              f"{base.cycle_time:.3f} s, ratio {s500.cycle_time / base.cycle_time:.3f} (target 0.64); "
+              f"peak jerk {j / 500:.3f} x limit")
+    print("\nTargets")
+    checks = []
+    for r in rows:
+        if "lcnc_feed" in r:
+            checks.append((f"{r['name']}: trapezoid {r['trap_feed'] / r['lcnc_feed']:.3f} x LinuxCNC <= 0.90",
+                           r["trap_feed"] <= 0.9 * r["lcnc_feed"]))
+        dev = max(r["trap"]["dev_to_path"], r["trap"]["dev_from_path"])
+        checks.append((f"{r['name']}: trapezoid deviation {dev:.4f} mm <= 0.05 both ways", dev <= TOL))
+        checks.append((f"{r['name']}: S-curve peak jerk {r['s']['j'] / JERK:.3f} x limit <= 1.05",
+                       r["s"]["j"] <= 1.05 * JERK))
+        checks.append((f"{r['name']}: S-curve {r['s_feed'] / r['trap_feed']:.3f} x trapezoid <= 1.3",
+                       r["s_feed"] <= 1.3 * r["trap_feed"]))
+    for text, ok in checks:
+        print(f"  [{'PASS' if ok else 'FAIL'}] {text}")
+
+
+if __name__ == "__main__":
+    main()
