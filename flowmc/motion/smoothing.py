@@ -69,8 +69,11 @@ _FIT_SETTLE = 6  # iterations that may also smooth more where the tolerance is m
 _SPARE = 0.6
 _RELAX = 1.6
 _MIN_SPANS = 10  # a run, however short, has room to turn: six of its control points are held by its ends
-_KNOT_TOL = 2.0  # knot spacing, in tolerances
-_REFINE_KNOTS = 1  # times a run that misses the tolerance is fitted again with knots twice as dense
+_END_FIT = 2.0  # mm of programmed path a free run end takes its direction from
+_KNOT_TOL = 2.0  # least knot spacing, in tolerances
+_KNOT_SEGMENT = 0.4  # knot spacing in a run's typical programmed segment lengths
+_KNOT_MAX = 10.0  # most knot spacing, in tolerances
+_REFINE_KNOTS = 2  # times a run that misses the tolerance is fitted again with knots twice as dense
 _PARAM_PASSES = 3  # refits with the data re-parameterised by arc length along the fitted curve
 #: The penalty's difference stencils: second differences ~ the integral of |p''|^2 (bending; for
 #: acceleration limits), third ~ of |p'''|^2 (the rate of change of curvature; for jerk limits).
@@ -302,7 +305,7 @@ class _RunFitter:
         self.free_a, self.free_b = free_a, free_b
         n_runs = len(ua)
         length = ub - ua
-        self.spans = np.maximum(_MIN_SPANS, np.ceil(length / h).astype(int))
+        self.spans = np.maximum(_MIN_SPANS, np.ceil(length / np.broadcast_to(h, length.shape)).astype(int))
         self.ncp = self.spans + 3
         self.offset = np.r_[0, np.cumsum(self.ncp)[:-1]]
         self.total = int(self.ncp.sum())
@@ -321,11 +324,25 @@ class _RunFitter:
         self.bounds = np.searchsorted(self.run_of, np.arange(n_runs + 1))
         self.d_a = raw.evaluate(ua, 2, index=raw.interval_at(ua))
         self.d_b = raw.evaluate(ub, 2, index=np.clip(raw.interval_at(ub - 1e-12), 0, None))
+        self.end_tangent = (self._data_tangent(ua, ub - ua, free_a, 1.0), self._data_tangent(ub, ub - ua, free_b, -1.0))
         # smoothing length per data point: a few programmed segment lengths, enough to even out the
         # kinks between them without reshaping the curve they describe
         k_raw = raw.interval_at(self.pu)
         self.seg_len = raw.u1[k_raw] - raw.u0[k_raw]
         self.scale = None
+
+    def _data_tangent(self, at: np.ndarray, length: np.ndarray, free: np.ndarray, way: float) -> np.ndarray:
+        """Unit tangent of the programmed path at run ends ``at`` (going into the run): the slope at the end of
+        a least-squares quadratic through the path over its first _END_FIT mm (or a quarter of the run)."""
+        out = np.zeros((len(at), 3))
+        x = np.linspace(0.0, 1.0, 17)
+        for r in np.flatnonzero(free):
+            span = min(_END_FIT, 0.25 * length[r])
+            pts = self.raw.points(at[r] + way * span * x)
+            coef = np.polynomial.polynomial.polyfit(span * x, pts, 2)
+            slope = way * coef[1]
+            out[r] = slope / max(float(np.linalg.norm(slope)), 1e-300)
+        return out
 
     def _setup(self, t: np.ndarray, width: np.ndarray) -> None:
         """Basis, fixed end control points and penalty for fitting parameters t over [ua, ua + width]."""
@@ -353,8 +370,11 @@ class _RunFitter:
                                                       d_a[0] + h_r * d_a[1] + h_r**2 * d_a[2] / 3.0)
         c_fixed[e], c_fixed[e - 1], c_fixed[e - 2] = (d_b[0], d_b[0] - h_r * d_b[1] / 3.0,
                                                       d_b[0] - h_r * d_b[1] + h_r**2 * d_b[2] / 3.0)
-        fixed[np.concatenate([o, e, (o + 1)[~self.free_a], (o + 2)[~self.free_a], (e - 1)[~self.free_b],
-                              (e - 2)[~self.free_b]])] = True
+        # at a free end (a stop) the direction is the data's own there, from a quadratic through its first
+        # few millimetres: a spline left free to turn at its end strays there
+        c_fixed[o + 1] = np.where(self.free_a[:, None], d_a[0] + h_r * self.end_tangent[0] / 3.0, c_fixed[o + 1])
+        c_fixed[e - 1] = np.where(self.free_b[:, None], d_b[0] - h_r * self.end_tangent[1] / 3.0, c_fixed[e - 1])
+        fixed[np.concatenate([o, e, o + 1, e - 1, (o + 2)[~self.free_a], (e - 2)[~self.free_b]])] = True
         self.fixed, self.c_fixed = fixed, c_fixed
         # second-difference penalty rows: sum |D2 c|^2 ~ h^3 * integral |p''|^2, so mu = l^4 / (delta h^3)
         # makes the objective (1/delta) (integral r^2 + l^4 integral |p''|^2)
@@ -488,7 +508,7 @@ class _RunFitter:
                 knot_pu[r] = np.interp(self.knots[r][3:-3], t[lo:hi], self.pu[lo:hi])
                 dev_best[r] = dev[r]
             ok_any |= ok
-            if attempt == _PARAM_PASSES:
+            if attempt == _PARAM_PASSES or ok_any.all():
                 break
             moved = self._arc_length_params(coef, width)
             if moved is None:
@@ -642,10 +662,17 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     failed = 0
     deviation = 0.0
     if len(fits):
-        pending, h, devs = fits, _KNOT_TOL * tolerance, []
+        # knots a fraction of the run's typical segment apart (chords of a gentle curve need fewer), no
+        # closer than _KNOT_TOL tolerances and no further apart than _KNOT_MAX
+        widths = raw.u1 - raw.u0
+        lo_i = np.searchsorted(raw.u1, runs.ua[fits], side="right")
+        hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
+        typical = np.array([np.median(widths[a:max(b, a + 1)]) for a, b in zip(lo_i, hi_i)])
+        h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
+        pending, devs = fits, []
         for attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
             fit = _RunFitter(raw, runs.ua[pending], runs.ub[pending], runs.free_a[pending], runs.free_b[pending],
-                             tol_fit, h, order=3 if g2 else 2).fit()
+                             tol_fit, h[np.searchsorted(fits, pending)], order=3 if g2 else 2).fit()
             ncp = np.diff(np.r_[fit.offset, len(fit.coef)])
             for i, r in enumerate(pending):
                 if fit.ok[i]:

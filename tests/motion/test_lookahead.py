@@ -275,7 +275,7 @@ def test_helix_and_nurbs_keep_per_axis_acceleration_and_contour():
             traj = plan.trajectory
             assert peak_ratio(traj, LIMITS, order=2, exclude_times=plan.corner_times) <= 1.01
             assert peak_ratio(traj, LIMITS, order=1) <= 1.01
-            assert contour_error(traj.positions, programmed_polyline(path)) <= 0.005
+            assert contour_error(traj.positions, programmed_polyline(path)) <= TOL  # the junctions are smoothed within it
             assert np.array_equal(traj.positions[-1], path.end)
 
 
