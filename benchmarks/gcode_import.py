@@ -1,11 +1,18 @@
-"""Importing a 100,000-line G-code program: flowmc's reader against LinuxCNC's rs274 on the same file.
+"""Importing G-code: flowmc's reader against LinuxCNC's rs274 on the same files, side by side.
 
-Target: flowmc is no slower than ``rs274 -g FILE`` (LinuxCNC's C++ interpreter printing its
-canonical calls, output to /dev/null). Both are timed in the same run on the same file: medians of
-5 runs after a warm-up (the readers take turns, so a busy moment on a shared machine hits both),
-wall time, file reading included; a last row shows how much of flowmc's time goes into reading the
-text into words (the rest is the modal interpretation and making the segment objects). The result
-is checked against rs274 once, untimed: number of moves and the worst end-point difference.
+Three programs, each checked against rs274 once (untimed: number of moves, worst end point):
+
+- plain: 100,000 lines of what CAM post-processors write (lines, rapids, I/J/K and R arcs in all
+  planes, helices with turns, G91 stretches, feed changes, dwells, outputs, N words, comments);
+  target: flowmc at most 0.75 x rs274's time.
+- parametric: 100,000 lines full of parameters, expressions and subroutine calls (helical bores
+  with a while loop, slots returning their length, parameter arithmetic, moves computed with
+  SIN/COS); target: at most 1.0 x rs274's time.
+- a 1,000,000-line plain program: flowmc's peak memory (max RSS of a fresh process reading it).
+
+Times are wall-clock medians of 5 runs after a warm-up, the readers taking turns so a busy moment
+on a shared machine hits both: ``rs274 -g FILE`` with its output to /dev/null, and flowmc's
+``read_gcode(FILE)`` giving the Path, file reading included.
 
     python3 benchmarks/gcode_import.py [lines]
 """
@@ -24,13 +31,12 @@ from pathlib import Path as FsPath
 import numpy as np
 
 from flowmc.devices.linuxcnc.rs274 import run_rs274_file
-from flowmc.motion import gcode_read as gcode
+from flowmc.motion.gcode import read_gcode
 from flowmc.motion.path import Dwell
 
 RUNS = 5
 
-
-def program(n_lines: int, seed: int = 7) -> str:
+def plain_program(n_lines: int, seed: int = 7) -> str:
     """Lines, rapids, I/J/K and R arcs in all planes, helices with turns, G91 stretches, feed changes,
     dwells, outputs, N words and comments: ``n_lines`` lines in all, in mm."""
     rng = random.Random(seed)
@@ -99,8 +105,56 @@ def program(n_lines: int, seed: int = 7) -> str:
     return "\n".join(out) + "\n"
 
 
-def interleaved_times(fns: list) -> list[tuple[float, float]]:
-    """(median, min) wall time of each function; runs alternate, so a busy moment hits all alike."""
+def parametric_program(n_lines: int, seed: int = 11) -> str:
+    """Subroutines (a helical bore with a while loop, a slot that returns its length), then lines of
+    parameter arithmetic, calls with computed arguments and moves computed with SIN/COS."""
+    rng = random.Random(seed)
+    out = ["(flowmc benchmark: a parametric program)", "G21 G90 G17 G94 G91.1 G64 P0.01",
+           "#<_safe> = 5", "#<_plunge> = 300", "#<_fr> = 1200", "#<_step> = 0.5",
+           "o<hole> sub (x, y, depth, radius: a helical bore)",
+           "  #<z> = 0",
+           "  G0 X[#1 + #4] Y#2",
+           "  G1 Z0 F#<_plunge>",
+           "  o<h1> while [#<z> GT #3]",
+           "    #<z> = [#<z> - #<_step>]",
+           "    G2 X[#1 + #4] Y#2 I[-#4] J0 Z#<z> F#<_fr>",
+           "  o<h1> endwhile",
+           "  G2 X[#1 + #4] Y#2 I[-#4] J0",
+           "  G0 Z#<_safe>",
+           "o<hole> endsub",
+           "o<slot> sub (x1, y1, x2, y2, depth)",
+           "  G0 X#1 Y#2",
+           "  G1 Z#5 F#<_plunge>",
+           "  G1 X#3 Y#4 F#<_fr>",
+           "  G0 Z#<_safe>",
+           "  o<slot> return [SQRT[[#3 - #1] ** 2 + [#4 - #2] ** 2]]",
+           "o<slot> endsub",
+           "#100 = 0", "#101 = 0", "#<len> = 0", "S10000 M3", "G0 Z#<_safe>"]
+    while len(out) < n_lines - 3:
+        r = rng.random()
+        if r < 0.25:
+            out.append(f"#{rng.randint(102, 120)} = [#{rng.randint(100, 120)} * {rng.uniform(0.2, 0.9):.3f} + "
+                       f"{rng.uniform(-20, 20):.3f}]")
+        elif r < 0.35:
+            out.append(f"#100 = [#100 + {rng.uniform(0.5, 3):.2f}] #101 = [#101 MOD 360 + {rng.randint(5, 40)}]")
+        elif r < 0.45:
+            out.append(f"o<hole> call [{rng.uniform(-80, 80):.3f}] [#{rng.randint(102, 120)}] "
+                       f"[-{rng.choice([1, 1.5, 2])}] [{rng.uniform(1, 4):.2f}]")
+        elif r < 0.55:
+            out.append(f"o<slot> call [#{rng.randint(102, 120)}] [{rng.uniform(-80, 80):.3f}] "
+                       f"[#{rng.randint(102, 120)} + 5] [{rng.uniform(-80, 80):.3f}] [-1]")
+            out.append("#<len> = [#<len> + #<_value>]")
+        elif r < 0.85:
+            out.append(f"G1 X[#100 * COS[#101] + {rng.uniform(-5, 5):.3f}] Y[#100 * SIN[#101]] "
+                       f"Z[-0.5 - #{rng.randint(102, 120)} / 100] F#<_fr>")
+        else:
+            out.append(f"G0 X{rng.uniform(-90, 90):.3f} Y{rng.uniform(-90, 90):.3f} Z#<_safe>")
+    out += ["G0 Z#<_safe>", "M5", "M2"]
+    return "\n".join(out) + "\n"
+
+
+def interleaved_times(fns: list) -> list[float]:
+    """Median wall time of each function; runs alternate, so a busy moment hits all alike."""
     for fn in fns:
         fn()
     times: list[list[float]] = [[] for _ in fns]
@@ -109,45 +163,55 @@ def interleaved_times(fns: list) -> list[tuple[float, float]]:
             t0 = time.perf_counter()
             fn()
             times[k].append(time.perf_counter() - t0)
-    return [(statistics.median(t), min(t)) for t in times]
+    return [statistics.median(t) for t in times]
+
+
+def rs274(file: FsPath) -> None:
+    subprocess.run(["rs274", "-g", str(file)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   stdin=subprocess.DEVNULL, check=True)
+
+
+def check(file: FsPath) -> str:
+    path = read_gcode(file)
+    moves = [s for s in path if not isinstance(s, Dwell)]
+    ref = run_rs274_file(file).in_machine_coordinates()
+    if len(moves) != len(ref):
+        return f"{len(moves)} moves vs rs274's {len(ref)}: DIFFERENT"
+    worst = float(np.max(np.abs(np.array([s.end for s in moves]) - ref.end))) if moves else 0.0
+    return f"{len(moves)} moves as rs274's, worst end-point difference {worst:.1e} mm"
+
+
+def peak_memory_mb(file: FsPath) -> tuple[float, int]:
+    """Max RSS (MB) of a fresh Python reading the file, and how many segments it made."""
+    code = ("import resource, sys; from flowmc.motion.gcode import read_gcode; p = read_gcode(sys.argv[1]); "
+            "print(len(p), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
+    out = subprocess.run([sys.executable, "-c", code, str(file)], capture_output=True, text=True, check=True)
+    segments, kb = out.stdout.split()
+    return int(kb) / 1024.0, int(segments)
 
 
 def main(n_lines: int = 100_000) -> None:
     with tempfile.TemporaryDirectory(prefix="flowmc-bench-") as tmp:
-        file = FsPath(tmp) / "bench.ngc"
-        file.write_text(program(n_lines))
-        text = file.read_text()
-        n = text.count("\n")
-        path = gcode.read_gcode(file)
-        moves = [s for s in path if not isinstance(s, Dwell)]
-        ref = run_rs274_file(file)
-        worst = max(np.max(np.abs(np.array([s.end for s in moves]) - ref.end)), 0.0) if len(moves) == len(ref) else None
-        print(f"program: {n} lines, {file.stat().st_size / 1e6:.2f} MB, {len(path)} segments "
-              f"({sum(s.kind == 'arc' for s in path)} arcs, {sum(s.kind == 'dwell' for s in path)} dwells)")
-        print(f"check against rs274: {len(moves)} moves vs {len(ref)}; worst end-point difference "
-              f"{'n/a' if worst is None else f'{worst:.2e} mm'}\n")
-
-        def rs274():
-            subprocess.run(["rs274", "-g", str(file)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                           stdin=subprocess.DEVNULL, check=True)
-
-        def words():
-            raw = file.read_bytes().decode("utf-8", errors="replace")
-            return gcode._tokenise(gcode._clean(raw, False), raw, file.name)
-
-        names = ["rs274 -g FILE > /dev/null (LinuxCNC)", "flowmc read_gcode(FILE) -> Path",
-                 "  of which: text -> words"]
-        timed = interleaved_times([rs274, lambda: gcode.read_gcode(file), words])
-        rows = [(name, med, best) for name, (med, best) in zip(names, timed)]
-        base = rows[0][1]
-        head = f"{'reader':<40}{'median s':>10}{'min s':>9}{'lines/s':>12}{'ratio to rs274':>16}"
+        files = {"plain": FsPath(tmp) / "plain.ngc", "parametric": FsPath(tmp) / "parametric.ngc"}
+        files["plain"].write_text(plain_program(n_lines))
+        files["parametric"].write_text(parametric_program(n_lines))
+        targets = {"plain": 0.75, "parametric": 1.0}
+        head = f"{'program':<12}{'lines':>9}{'rs274 s':>10}{'flowmc s':>10}{'ratio':>8}{'target':>8}  check against rs274"
         print(head)
-        print("-" * len(head))
-        for name, med, best in rows:
-            print(f"{name:<40}{med:>10.3f}{best:>9.3f}{n / med:>12.3g}{med / base:>16.2f}")
-        ratio = rows[1][1] / base
-        print(f"\ntarget: flowmc no slower than rs274 -> ratio {ratio:.2f} "
-              f"({'met' if ratio <= 1.0 else 'NOT met'})")
+        print("-" * (len(head) + 40))
+        for name, file in files.items():
+            lines = file.read_text().count("\n")
+            note = check(file)
+            t_ref, t_ours = interleaved_times([lambda f=file: rs274(f), lambda f=file: read_gcode(f)])
+            ratio = t_ours / t_ref
+            verdict = "met" if ratio <= targets[name] else "NOT met"
+            print(f"{name:<12}{lines:>9}{t_ref:>10.3f}{t_ours:>10.3f}{ratio:>8.2f}{targets[name]:>7.2f}x  {note} "
+                  f"(target {verdict})")
+        big = FsPath(tmp) / "million.ngc"
+        big.write_text(plain_program(10 * n_lines, seed=3))
+        mb, segments = peak_memory_mb(big)
+        print(f"\npeak memory reading {10 * n_lines:,} plain lines ({big.stat().st_size / 1e6:.0f} MB, "
+              f"{segments:,} segments): {mb:.0f} MB max RSS")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""The ``flowmc`` command: run graphs headless, validate them, list node types, print the schema.
+"""The ``flowmc`` command: run graphs headless, validate them, list node types, print the schema, sweep.
 
 Exit codes: 0 success, 1 the run failed (or a tool is missing), 2 the graph or an argument is invalid.
 Every problem is one line on stderr; no tracebacks (set FLOWMC_DEBUG=1 to see them).
@@ -16,14 +16,11 @@ from pathlib import Path
 from typing import Any, Callable
 
 from flowmc.errors import FlowmcError, GraphError
+from flowmc.settings import UsageError, input_target, param_target
 
 __all__ = ["main", "build_parser"]
 
 EXIT_OK, EXIT_FAILED, EXIT_INVALID = 0, 1, 2
-
-
-class UsageError(FlowmcError):
-    """A bad command-line argument (exit 2)."""
 
 
 def _err(line: str) -> None:
@@ -31,31 +28,6 @@ def _err(line: str) -> None:
 
 
 # ---------------------------------------------------------------- values from the command line
-
-def parse_value(port_type: str | None, text: str, what: str) -> Any:
-    """Turn command-line text into a value for a port type (None: any JSON, else the text)."""
-    if port_type == "Text":
-        return text
-    if port_type == "Number":
-        try:
-            value = float(text)
-        except ValueError:
-            raise UsageError(f"{what}: {text!r} is not a number") from None
-        return int(value) if value.is_integer() and "." not in text and "e" not in text.lower() else value
-    if port_type == "Bool":
-        lowered = text.strip().lower()
-        if lowered in ("true", "1", "yes", "on"):
-            return True
-        if lowered in ("false", "0", "no", "off"):
-            return False
-        raise UsageError(f"{what}: {text!r} is not true or false")
-    if port_type is not None:
-        raise UsageError(f"{what}: a {port_type} cannot be given on the command line")
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
 
 def _split_assignment(item: str, option: str) -> tuple[str, str]:
     key, sep, value = item.partition("=")
@@ -67,45 +39,21 @@ def _split_assignment(item: str, option: str) -> tuple[str, str]:
 def apply_sets(graph: Any, sets: list[str], registry: Any) -> None:
     """``--set NODE.PARAM=VALUE``: change stored params; unknown nodes or params are errors."""
     for item in sets:
-        target, text = _split_assignment(item, "--set")
-        node_id, dot, param = target.partition(".")
-        what = f"--set {target}"
-        if not dot or not param:
+        name, text = _split_assignment(item, "--set")
+        what = f"--set {name}"
+        if "." not in name:
             raise UsageError(f"{what}: expected NODE.PARAM=VALUE")
-        node = next((n for n in graph.nodes if n.id == node_id), None)
-        if node is None:
-            raise UsageError(f"{what}: no node {node_id!r} (nodes: {', '.join(sorted(n.id for n in graph.nodes))})")
-        try:
-            cls = registry.lookup(node.type, graph.base_dir)
-        except GraphError:
-            raise UsageError(f"{what}: node {node_id!r} has unknown type {node.type!r}") from None
-        fields = cls.Params.model_fields
-        if param not in fields:
-            raise UsageError(f"{what}: node {node_id!r} ({node.type}) has no param {param!r} (params: {', '.join(fields) or 'none'})")
-        _refuse_fed_param(graph, target, what)
-        port_types = {p.name: p.types[0] for p in cls.param_ports()}
-        node.params[param] = parse_value(port_types.get(param), text, what)
-
-
-def _refuse_fed_param(graph: Any, target: str, what: str) -> None:
-    """A stored param that a wire or an interface input feeds would be overridden: say so, not ignore it."""
-    feeding = next((w.from_ for w in graph.wires if w.to == target), None)
-    if feeding is not None:
-        raise UsageError(f"{what}: that param is fed by the wire from {feeding}; the stored value is not used")
-    for inp in graph.interface.inputs if graph.interface else ():
-        if target in inp.to:
-            raise UsageError(f"{what}: that param is fed by the graph input {inp.name!r}; "
-                             f"use --input {inp.name}=VALUE")
+        target = param_target(graph, name, what, registry)
+        target.apply(graph, target.parse(text, what), {})
 
 
 def parse_inputs(graph: Any, items: list[str]) -> dict[str, Any]:
-    declared = {i.name: i.type for i in graph.interface.inputs} if graph.interface else {}
-    values = {}
+    values: dict[str, Any] = {}
     for item in items:
         name, text = _split_assignment(item, "--input")
-        if name not in declared:
-            raise UsageError(f"--input {name}: the graph has no input {name!r} (inputs: {', '.join(declared) or 'none'})")
-        values[name] = parse_value(declared[name], text, f"--input {name}")
+        what = f"--input {name}"
+        target = input_target(graph, name, what)
+        target.apply(graph, target.parse(text, what), values)
     return values
 
 
@@ -312,6 +260,44 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Run the graph over a grid, a table or a folder of files (``flowmc.sweep``)."""
+    from flowmc.sweep.command import sweep_main
+
+    return sweep_main(args, _registry(args))
+
+
+def _sweep_arguments(p: argparse.ArgumentParser) -> None:
+    """``flowmc sweep``'s options (docs/sweeps.md); flowmc.sweep checks the executor and device choices too."""
+    p.add_argument("graph", help="graph file (*.flowmc.json)")
+    what = p.add_argument_group("what to sweep (several axes give their product)")
+    what.add_argument("--grid", action="append", default=[], metavar="TARGET=V1,V2,...",
+                      help="values of a setting: node.param or an interface input name; numbers also as "
+                           "start:stop:step (stop included)")
+    what.add_argument("--over", action="append", default=[], metavar="TARGET=PATTERN",
+                      help="every file a glob pattern matches, e.g. gcode.file=programs/*.ngc")
+    what.add_argument("--table", metavar="variants.csv", help="a CSV table: a header of targets, one variant per row")
+    how = p.add_argument_group("where it runs")
+    how.add_argument("--executor", choices=("local", "dask"), default="local",
+                     help="local: processes on this machine; dask: a Dask LocalCluster, or --scheduler")
+    how.add_argument("--workers", type=int, metavar="N", help="worker processes (default: one per core)")
+    how.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    how.add_argument("--ship", action=argparse.BooleanOptionalAction, default=None,
+                     help="send the graph's folder to the workers (default: only with --scheduler)")
+    how.add_argument("--batch", type=int, metavar="N", help="variants per task (default: about 8 tasks per worker)")
+    how.add_argument("--devices", choices=("refuse", "sim"), default="refuse",
+                     help="device nodes that drive hardware: refuse the sweep (default), or run them on the "
+                          "simulated card")
+    out = p.add_argument_group("results")
+    out.add_argument("--out", metavar="DIR", help="results folder (default: GRAPH-STEM-sweep)")
+    out.add_argument("--resume", action="store_true", help="skip the variants the results folder already holds")
+    out.add_argument("--overwrite", action="store_true", help="start again in a results folder that holds rows")
+    out.add_argument("--plot", metavar="OUT,...", help="outputs to plot (default: the numeric outputs)")
+    out.add_argument("--against", metavar="SETTING,...", help="swept settings on the x axis (default: all)")
+    out.add_argument("--pareto", metavar="A,B", help="two objectives for a Pareto front (minimised; max:NAME maximises)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -355,6 +341,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--as-planned", action="store_true",
                    help="compare the graph's own look-ahead plan as it is, differences listed at the top")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("sweep", parents=[plugins],
+                       help="run a graph over many settings (a grid, a table, a folder of files) in parallel")
+    _sweep_arguments(p)
+    p.set_defaults(func=cmd_sweep)
     return parser
 
 

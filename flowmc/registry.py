@@ -71,6 +71,7 @@ class NodeType:
     inputs: ClassVar[tuple[In, ...]] = ()
     outputs: ClassVar[tuple[Out, ...]] = ()
     fixed_params: ClassVar[tuple[str, ...]] = ()  # scalar params that cannot be fed by a wire
+    host_resources: ClassVar[tuple[str, ...]] = ()  # what a run holds on its host, e.g. "linuxcnc" (one per host)
 
     @classmethod
     def ports(cls, params: BaseModel) -> Ports:

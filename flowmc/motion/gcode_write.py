@@ -1,4 +1,4 @@
-"""G-code out: a Path as the RS274/NGC text that ``flowmc.motion.gcode_read`` and LinuxCNC read back.
+"""G-code out: a Path as the RS274/NGC text that ``flowmc.motion.gcode`` and LinuxCNC read back.
 
 ``path_to_gcode`` / ``write_gcode`` write a header ``G21 G90 G91.1 G17 G94`` (mm, absolute
 coordinates, arc centres relative to the arc start as I/J/K - the default of LinuxCNC and of GRBL),

@@ -249,7 +249,7 @@ def _moves_in_xy(index: int, seg: Segment) -> bool:
 def _placed(seg: Segment, xy: np.ndarray) -> Segment:
     """A move without XY travel (plunge, dwell) moved to the offset point."""
     if isinstance(seg, Dwell):
-        return Dwell(np.append(xy, seg.start[2]), seg.seconds, **_state(seg))
+        return Dwell(np.append(xy, seg.start[2]), seg.seconds, seg.event, **_state(seg))
     return Line(np.append(xy, seg.start[2]), np.append(xy, seg.end[2]), **_state(seg))
 
 

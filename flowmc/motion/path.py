@@ -26,6 +26,8 @@ __all__ = [
     "EllipseArc",
     "NurbsCurve",
     "Dwell",
+    "PathEvent",
+    "EVENT_KINDS",
     "Path",
     "PLANES",
     "chord_count",
@@ -36,7 +38,12 @@ __all__ = [
 #: ordered so that ccw in (u, v) is a right-handed turn about the normal axis (RS274/NGC's rule).
 PLANES = {2: ("XY", (0, 1)), 1: ("XZ", (2, 0)), 0: ("YZ", (1, 2))}
 
-_RADIUS_TOL = 1e-4  # mm: how far start and end radii of an arc may differ (RS274 uses a similar bound)
+_RADIUS_TOL = 1e-4  # mm: start and end radii closer than this make a circular arc
+# An arc whose end radius differs more is a spiral, as LinuxCNC cuts it (the radius blends along the
+# sweep): accepted up to LinuxCNC's inch tolerance (0.002 * sqrt(2) in) or 0.1 % of the radius, and
+# never past 100 times that tolerance (LinuxCNC's limits, see flowmc/motion/gcode/arcs.py).
+_SPIRAL_ABS = 0.002 * math.sqrt(2.0) * 25.4
+_SPIRAL_REL = 0.001
 
 
 def _vec3(value, name: str) -> np.ndarray:
@@ -207,9 +214,11 @@ class Arc(Segment):
         for key, value in {**_defaults(), **state}.items():
             object.__setattr__(self, key, value)
         r0, r1 = self._radii()
-        if r0 <= 0:
-            raise PathError("arc radius is zero (start point is the centre)", where=self.source or None)
-        if abs(r0 - r1) > max(_RADIUS_TOL, 1e-9 * r0):
+        if r0 <= 0 or r1 <= 0:
+            raise PathError("arc radius is zero (start or end point is the centre)", where=self.source or None)
+        diff = abs(r0 - r1)
+        if diff > max(_RADIUS_TOL, 1e-9 * r0) and (diff > 100.0 * _SPIRAL_ABS or (
+                diff > _SPIRAL_ABS and diff > _SPIRAL_REL * max(r0, r1))):
             raise PathError(
                 f"arc end is not on the circle: start radius {r0:.6f} mm, end radius {r1:.6f} mm",
                 where=self.source or None,
@@ -228,7 +237,14 @@ class Arc(Segment):
 
     @cached_property
     def radius(self) -> float:
+        """The start radius (the radius of a circular arc)."""
         return self._radii()[0]
+
+    @cached_property
+    def end_radius(self) -> float:
+        """The end radius: equal to ``radius`` within 0.0001 mm, except for a spiral (an arc whose end
+        LinuxCNC accepts off the circle; the radius then blends linearly along the sweep)."""
+        return self._radii()[1]
 
     @cached_property
     def start_angle(self) -> float:
@@ -259,7 +275,7 @@ class Arc(Segment):
 
     @cached_property
     def length(self) -> float:
-        return math.hypot(self.radius * abs(self.sweep), self.rise)
+        return math.hypot(0.5 * (self.radius + self.end_radius) * abs(self.sweep), self.rise)
 
     def _theta(self, s) -> np.ndarray:
         return self.start_angle + _clip_s(self, s) / self.length * self.sweep
@@ -268,25 +284,30 @@ class Arc(Segment):
         s = np.asarray(s, dtype=float)
         theta = self._theta(s)
         iu, iv = PLANES[self.normal_axis][1]
+        f = _clip_s(self, s) / self.length
+        r = self.radius + (self.end_radius - self.radius) * f
         out = np.empty(np.shape(s) + (3,))
-        out[..., iu] = self.center[iu] + self.radius * np.cos(theta)
-        out[..., iv] = self.center[iv] + self.radius * np.sin(theta)
-        out[..., self.normal_axis] = self.start[self.normal_axis] + _clip_s(self, s) / self.length * self.rise
+        out[..., iu] = self.center[iu] + r * np.cos(theta)
+        out[..., iv] = self.center[iv] + r * np.sin(theta)
+        out[..., self.normal_axis] = self.start[self.normal_axis] + f * self.rise
         return out
 
     def tangent_at(self, s) -> np.ndarray:
         s = np.asarray(s, dtype=float)
         theta = self._theta(s)
         iu, iv = PLANES[self.normal_axis][1]
-        w = self.sweep * self.radius
+        dr = self.end_radius - self.radius
+        r = self.radius + dr * _clip_s(self, s) / self.length
+        w = self.sweep * r
         out = np.empty(np.shape(s) + (3,))
-        out[..., iu] = -np.sin(theta) * w
-        out[..., iv] = np.cos(theta) * w
+        out[..., iu] = -np.sin(theta) * w + np.cos(theta) * dr
+        out[..., iv] = np.cos(theta) * w + np.sin(theta) * dr
         out[..., self.normal_axis] = self.rise
-        return out / self.length
+        return out / np.linalg.norm(out, axis=-1, keepdims=True)
 
     def sample(self, tol: float) -> np.ndarray:
-        n = chord_count(self.radius * abs(self.sweep), self.radius, tol)
+        r = min(self.radius, self.end_radius)
+        n = chord_count(r * abs(self.sweep), r, tol)
         return self.point_at(np.linspace(0.0, self.length, n + 1))
 
     def transformed(self, matrix, offset) -> "Arc":
@@ -493,21 +514,61 @@ class NurbsCurve(_TabulatedCurve, Segment):
         return (*self._meta(), self.control_points, self.weights, self.knots, self.degree)
 
 
+#: What a PathEvent asks of whoever runs the path (see ``PathEvent``).
+EVENT_KINDS = ("pause", "optional_pause", "pallet_change", "tool_change", "index")
+
+
+@dataclass(frozen=True)
+class PathEvent:
+    """Something between motions that needs the operator, carried by a zero-second ``Dwell``.
+
+    ``kind``: ``"pause"`` (M0: stop until resumed), ``"optional_pause"`` (M1: stop only when the
+    optional-stop switch is on), ``"pallet_change"`` (M60: stop for a pallet shuttle), ``"tool_change"``
+    (M6: stop for a manual tool change to ``tool``; a plotter may treat it as a pen swap), ``"index"``
+    (a G0/G1 that moves only a rotary or UVW axis, which flowmc paths do not have: stop so it can be
+    indexed). ``message``
+    is what to show the operator (a preceding ``(MSG, ...)``, or the new tool's table entry).
+    Motion before the event has come to a stop when it happens; nothing after it starts until the
+    job resumes.
+    """
+
+    kind: str
+    message: str = ""
+    tool: int | None = None
+
+    def __post_init__(self):
+        if self.kind not in EVENT_KINDS:
+            raise PathError(f"path event kind must be one of {', '.join(EVENT_KINDS)}, got {self.kind!r}")
+
+    def describe(self) -> dict:
+        out: dict = {"kind": self.kind}
+        if self.message:
+            out["message"] = self.message
+        if self.tool is not None:
+            out["tool"] = self.tool
+        return out
+
+
 @dataclass(frozen=True, eq=False, kw_only=True)
 class Dwell(Segment):
-    """A pause at a point (G4): no motion for ``seconds``."""
+    """A pause at a point (G4): no motion for ``seconds``; with an ``event``, a stop for the operator."""
 
     seconds: float = 0.0
+    event: PathEvent | None = None
 
     kind = "dwell"
 
-    def __init__(self, point, seconds: float, **state):
+    def __init__(self, point, seconds: float, event: PathEvent | None = None, **state):
         p = _vec3(point, "dwell point")
         if not seconds >= 0:
             raise PathError(f"dwell time must be >= 0 s, got {seconds}", where=state.get("source"))
+        if event is not None and not isinstance(event, PathEvent):
+            raise PathError(f"a dwell's event must be a PathEvent, got {type(event).__name__}",
+                            where=state.get("source"))
         object.__setattr__(self, "start", p)
         object.__setattr__(self, "end", p)
         object.__setattr__(self, "seconds", float(seconds))
+        object.__setattr__(self, "event", event)
         for key, value in {**_defaults(), **state}.items():
             object.__setattr__(self, key, value)
 
@@ -523,13 +584,16 @@ class Dwell(Segment):
         return self.start[None, :].copy()
 
     def transformed(self, matrix, offset) -> "Dwell":
-        return Dwell(matrix @ self.start + offset, self.seconds, **_state(self))
+        return Dwell(matrix @ self.start + offset, self.seconds, self.event, **_state(self))
 
     def digest_parts(self) -> tuple:
-        return (*self._meta(), self.start, self.seconds)
+        return (*self._meta(), self.start, self.seconds, self.event)
 
     def describe(self) -> dict:
-        return {**super().describe(), "seconds": self.seconds}
+        out = {**super().describe(), "seconds": self.seconds}
+        if self.event is not None:
+            out["event"] = self.event.describe()
+        return out
 
 
 _STATE_FIELDS = ("feed", "rapid", "tool_down", "spindle", "outputs", "analog", "source")
@@ -569,6 +633,12 @@ class Path:
 
     def __getitem__(self, i):
         return self.segments[i]
+
+    def events(self) -> tuple[tuple[int, PathEvent], ...]:
+        """``(segment index, event)`` for every segment carrying a PathEvent, in order: the pauses
+        and tool changes a job stops for (see ``PathEvent``)."""
+        return tuple((i, seg.event) for i, seg in enumerate(self.segments)
+                     if isinstance(seg, Dwell) and seg.event is not None)
 
     def segment_names(self) -> tuple[str, ...]:
         """Each segment's ``source`` ("" where it has none): what a Trajectory or Steps planned from this
@@ -701,6 +771,9 @@ class Path:
                        bbox_min=lo.round(4).tolist(), bbox_max=hi.round(4).tolist(),
                        kinds={k: sum(s.kind == k for s in self.segments)
                               for k in sorted({s.kind for s in self.segments})})
+            events = self.events()
+            if events:
+                out["events"] = [{"segment": i + 1, **event.describe()} for i, event in events]
         return out
 
     @staticmethod

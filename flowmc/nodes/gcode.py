@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from flowmc.errors import GcodeError
-from flowmc.motion.gcode_read import RAPID_FEED, parse_gcode, read_gcode
+from flowmc.motion.gcode import RAPID_FEED, GcodeOptions, ToolTable, interpret, interpret_file, read_var_file
 from flowmc.motion.gcode_write import path_to_gcode, write_gcode
 from flowmc.motion.path import Path
 from flowmc.registry import In, NodeType, Out, register
 
 _MM = {"unit": "mm"}
+_UNITS = {"mm": 1.0, "inch": 25.4}
+_SHOWN = 5  # warnings and messages logged per run
 
 
 class GcodeInParams(BaseModel):
@@ -26,6 +28,19 @@ class GcodeInParams(BaseModel):
                                        json_schema_extra={"unit": "mm/s"})] = RAPID_FEED
     block_delete: Annotated[bool, Field(description="Skip lines that start with '/' (LinuxCNC's block-delete "
                                                     "switch)")] = False
+    tool_table: Annotated[str | None, Field(description="Tool table in LinuxCNC's .tbl format, relative to the "
+                                                        "graph's folder (T, M6, G43, G41/G42 use it)")] = None
+    parameter_file: Annotated[str | None, Field(description="LinuxCNC parameter file (.var) with the work offsets, "
+                                                            "G28/G30 homes and other persistent parameters")] = None
+    machine_units: Annotated[Literal["mm", "inch"], Field(description="Units of the tool table and parameter file "
+                                                                      "(LinuxCNC's machine units)")] = "mm"
+    subroutine_folder: Annotated[str | None, Field(description="Folder of subroutine files: 'o<name> call' reads "
+                                                               "<name>.ngc there when the program does not define "
+                                                               "it")] = None
+    flood_output: Annotated[int, Field(ge=0, le=64, description="Digital output that M8 (flood coolant) switches "
+                                                                "on and M9 off")] = 1
+    mist_output: Annotated[int, Field(ge=0, le=64, description="Digital output that M7 (mist coolant) switches on "
+                                                               "and M9 off")] = 2
 
 
 @register
@@ -33,22 +48,42 @@ class GcodeIn(NodeType):
     type_id = "path.gcode_in"
     title = "G-code in"
     category = "Path"
-    description = "Read G-code (LinuxCNC's RS274/NGC subset: G0-G4, planes, units, modes, spindle, outputs) as a path."
-    pure = False  # the file may change between runs
+    description = "Read G-code as LinuxCNC does (parameters, O-words, offsets, tools, cycles, cutter comp) as a path."
+    pure = False  # the files may change between runs
+    fixed_params = ("file", "tool_table", "parameter_file", "subroutine_folder")
+    version = 2
     Params = GcodeInParams
-    outputs = (Out("path", "Path", doc="The program's moves, dwells and tool state, in mm and mm/s"),)
+    outputs = (Out("path", "Path", doc="The program's moves, dwells, pauses and tool changes, in machine "
+                                       "coordinates, mm and mm/s"),)
 
     def run(self, ctx, params: GcodeInParams):
+        units = _UNITS[params.machine_units]
+        tools = None
+        if params.tool_table:
+            tools = ToolTable.load(ctx.resolve(params.tool_table), units_mm=units, source=params.tool_table)
+        values = None
+        if params.parameter_file:
+            values = read_var_file(ctx.resolve(params.parameter_file), source=params.parameter_file)
+        folders = (ctx.resolve(params.subroutine_folder),) if params.subroutine_folder else ()
+        options = GcodeOptions(rapid_feed=params.rapid_feed, block_delete=params.block_delete, tool_table=tools,
+                               parameters=values, machine_units_mm=units, subroutine_dirs=folders,
+                               flood_output=params.flood_output, mist_output=params.mist_output)
         if params.file:
-            file = ctx.resolve(params.file)
-            path = read_gcode(file, rapid_feed=params.rapid_feed, block_delete=params.block_delete,
-                              source=params.file)
+            result = interpret_file(ctx.resolve(params.file), options, source=params.file)
         elif params.text.strip():
-            path = parse_gcode(params.text, "text", rapid_feed=params.rapid_feed, block_delete=params.block_delete)
+            result = interpret(params.text, "text", options)
         else:
             raise GcodeError("no G-code: type a program into 'text' or name a file")
+        path = result.path
         ctx.log(f"{len(path)} segments ({sum(s.kind == 'arc' for s in path)} arcs, "
-                f"{sum(s.kind == 'dwell' for s in path)} dwells), {path.length:.3f} mm")
+                f"{sum(s.kind == 'dwell' for s in path)} dwells, {len(path.events())} pauses and tool changes), "
+                f"{path.length:.3f} mm")
+        for where, text in result.messages[:_SHOWN]:
+            ctx.log(f"{where}: {text}")
+        for where, text in result.warnings[:_SHOWN]:
+            ctx.log(f"warning: {where}: {text}")
+        if result.warning_count > _SHOWN:
+            ctx.log(f"... {result.warning_count - _SHOWN} more warnings")
         return {"path": path}
 
 

@@ -27,6 +27,7 @@ class LinuxCNCCompare(NodeType):
     category = "Devices"
     description = "Run the path on LinuxCNC's simulator and report cycle time, deviations and peaks beside flowmc's plan."
     pure = False  # starts an external machine
+    host_resources = ("linuxcnc",)  # LinuxCNC instances on one host collide
     Params = CompareParams
     inputs = (
         In("path", "Path", doc="The programmed path"),

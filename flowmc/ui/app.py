@@ -1,6 +1,6 @@
 """The editor: ``flowmc serve [FILE]`` starts it. One viser server holds the node canvas (the scene)
 and the side panel (Run, edit buttons, and tabs for the inspector, the palette, files, problems,
-the front panel and the device); the 3D toolpath view runs on a second server shown in a docked
+the front panel, the device and sweeps); the 3D toolpath view runs on a second server shown in a docked
 panel (``extensions``).
 
 The editor edits and runs graphs only through the core's public API, by way of its
@@ -30,6 +30,7 @@ from flowmc.ui.inspector import Inspector
 from flowmc.ui.panels import PalettePanel, ProblemsPanel, free_spot
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
+from flowmc.ui.sweep_panel import SweepPanel
 from flowmc.ui.text import escape_md, md, plain
 
 __all__ = ["Editor", "serve_main"]
@@ -62,6 +63,10 @@ class Editor:
         self.canvas = Canvas(self.server, self.state, self.notify, self.lock, status=self.session.status)
         self._build_gui()
         self.extensions = Extensions(self) if extensions else None
+        self.sweep_panel: SweepPanel | None = None
+        if extensions:
+            with self.tab_group.add_tab("Sweep"):
+                self.sweep_panel = SweepPanel(self)
         self.session.on_progress(self.canvas.sync)
         self.session.on_result(self._run_finished)
         self.state.subscribe(self._on_state)
@@ -272,6 +277,8 @@ class Editor:
         self.session.close()
         if self.extensions is not None:
             self.extensions.close()
+        if self.sweep_panel is not None:
+            self.sweep_panel.close()
         self.server.stop()
 
 

@@ -237,7 +237,7 @@ def test_grbl_board_receives_the_pen_commands(grbl_sim):  # noqa: F811
 
 def test_by_default_no_pen_is_driven_so_a_milling_program_with_rapids_and_a_spindle_runs():
     from flowmc.devices.linuxcnc.card import trajectory_gcode
-    from flowmc.motion.gcode_read import parse_gcode
+    from flowmc.motion.gcode import parse_gcode
 
     path = parse_gcode("G21 G90\nM3 S8000\nG0 X10 Y5\nG1 X30 F600\nG0 Z5\nG0 X0 Y0\nM5\nM2\n")
     machine = Machine(axes=(Axis(name="X"), Axis(name="Y"), Axis(name="Z", min=-50, max=50)))

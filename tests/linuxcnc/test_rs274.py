@@ -6,7 +6,7 @@ Programs are small and written here; expected values come from hand geometry.
 import numpy as np
 import pytest
 
-from flowmc.devices.linuxcnc.rs274 import ARC, FEED, TRAVERSE, number_lines, parse_canon, run_rs274, run_rs274_file
+from flowmc.devices.linuxcnc.rs274 import ARC, FEED, NURBS, TRAVERSE, number_lines, parse_canon, run_rs274, run_rs274_file
 from flowmc.errors import GcodeError
 
 
@@ -128,10 +128,18 @@ def test_files_are_named_in_errors(tmp_path):
     assert "missing.ngc" in str(err.value)
 
 
-def test_splines_are_refused_because_rs274_prints_no_control_points():
-    with pytest.raises(GcodeError) as err:
-        run_rs274("G21 G90 G1 X0 F600\nG5 X10 Y10 I5 J0 P5 Q0\nM2\n", name="s.ngc")
-    assert err.value.where == "s.ngc:2" and "NURBS_FEED" in err.value.message
+def test_splines_are_moves_without_geometry_because_rs274_prints_no_control_points():
+    prog = run_rs274("G21 G90 G1 X0 F600\nG5 X10 Y10 I5 J0 P5 Q0\nG1 X20\nM2\n", name="s.ngc")
+    assert list(prog.kind) == [FEED, NURBS, FEED] and list(prog.line) == [1, 2, 3]
+    assert np.isnan(prog.end[1]).all() and np.isnan(prog.start[2]).all()
+    np.testing.assert_allclose(prog.end[2], [20, 10, 0])  # the interpreter knows where the spline ended
+
+
+def test_a_rigid_tap_goes_down_and_back_and_synchronised_moves_have_no_f_feed():
+    prog = run_rs274("G21 G90 S500 M3 F600\nG0 X1 Y1 Z2\nG33.1 Z-5 K1\nG33 Z-6 K1\nG1 Z0\nM2\n")
+    assert list(prog.kind) == [TRAVERSE, FEED, FEED, FEED, FEED]
+    np.testing.assert_allclose(prog.end[1:4], [[1, 1, -5], [1, 1, 2], [1, 1, -6]])
+    assert np.isnan(prog.feed[1:4]).all() and prog.feed[4] == pytest.approx(10.0)
 
 
 def test_parse_canon_reads_a_listing_without_running_anything():

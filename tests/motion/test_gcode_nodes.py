@@ -5,7 +5,7 @@ from pathlib import Path as FsPath
 import numpy as np
 
 import flowmc
-from flowmc.motion.gcode_read import parse_gcode, read_gcode
+from flowmc.motion.gcode import parse_gcode, read_gcode
 from flowmc.motion.gcode_write import path_to_gcode
 
 PROGRAM = """\
@@ -35,9 +35,11 @@ def test_gcode_in_reads_typed_text(tmp_path):
     assert result.ok, result.errors
     path = result.outputs["path"]
     assert path.digest() == parse_gcode(PROGRAM, "text").digest()
-    assert [s.kind for s in path] == ["line", "line", "arc", "arc", "dwell", "line"]
-    assert path[0].source == "text:2"
-    assert result.nodes["gin"].logs == [f"6 segments (2 arcs, 1 dwells), {path.length:.3f} mm"]
+    # M2 stops the spindle: a last zero-second dwell carries that.
+    assert [s.kind for s in path] == ["line", "line", "arc", "arc", "dwell", "line", "dwell"]
+    assert path[0].source == "text:2" and path[-1].spindle == 0.0 and path[-2].spindle == 1000.0
+    assert result.nodes["gin"].logs == [f"7 segments (2 arcs, 2 dwells, 0 pauses and tool changes), "
+                                        f"{path.length:.3f} mm"]
 
 
 def test_gcode_in_reads_a_file_beside_the_graph_and_rereads_it_when_it_changes(tmp_path):
@@ -72,11 +74,11 @@ def test_gcode_text_can_come_from_a_wire(tmp_path):
 
 def test_bad_gcode_fails_the_node_naming_the_line(tmp_path):
     g = flowmc.GraphBuilder()
-    g.add("path.gcode_in", id="gin", text="G1 X1 F60\nG41 D1\n")
+    g.add("path.gcode_in", id="gin", text="G1 X1 F60\nG38.2 Z-1\n")
     result = run_saved(g, tmp_path)
     assert not result.ok
-    assert result.errors == ["node 'gin': text:2: G41 is not supported (tool radius compensation: use the "
-                             "Tool-radius offset node) (in: G41 D1)"]
+    assert result.errors == ["node 'gin': text:2: G38.2 is not supported (probing (G38.x) is not supported: flowmc "
+                             "plans paths ahead of time and cannot wait for a probe to trip) (in: G38.2 Z-1)"]
     (tmp_path / "b.ngc").write_text("G1 X1 F60\n\nG2 X30 R2\n")
     g = flowmc.GraphBuilder()
     g.add("path.gcode_in", id="gin", file="b.ngc")
@@ -147,3 +149,37 @@ def test_gcode_out_refuses_files_outside_the_folder_and_missing_folders(tmp_path
         assert not result.ok
         assert result.errors[0].startswith("node 'gout'") and message in result.errors[0], result.errors
     assert not (tmp_path.parent / "x.ngc").exists()
+
+
+def test_gcode_in_uses_the_tool_table_parameter_file_and_subroutine_folder_beside_the_graph(tmp_path):
+    (tmp_path / "subs").mkdir()
+    (tmp_path / "subs" / "square.ngc").write_text(
+        "o<square> sub\nG1 X#1 F600\nG1 Y#1\no<square> endsub\n")
+    (tmp_path / "tools.tbl").write_text("T1 P1 Z10 D6 ;6 mm end mill\n")
+    (tmp_path / "machine.var").write_text("5221 100\n5222 50\n")
+    program = "G54 T1 M6 G43\nG0 X0 Y0 Z0\no<square> call [20]\nM0\nM2\n"
+    g = flowmc.GraphBuilder()
+    node = g.add("path.gcode_in", id="gin", text=program, tool_table="tools.tbl", parameter_file="machine.var",
+                 subroutine_folder="subs")
+    g.output("path", "Path", node.path)
+    result = run_saved(g, tmp_path)
+    assert result.ok, result.errors
+    path = result.outputs["path"]
+    moves = [s for s in path if s.kind == "line"]
+    np.testing.assert_allclose(moves[0].end, [100, 50, 10])  # G54 offset and the 10 mm tool length
+    np.testing.assert_allclose(moves[-1].end, [120, 70, 10])
+    assert moves[-1].source == "square.ngc:3"
+    events = path.events()
+    assert [e.kind for _, e in events] == ["tool_change", "pause"]
+    assert events[0][1].tool == 1 and "6 mm end mill" in events[0][1].message
+
+
+def test_a_subroutine_file_linked_from_outside_the_folder_is_not_read(tmp_path):
+    (tmp_path / "graph").mkdir()
+    (tmp_path / "graph" / "subs").mkdir()
+    (tmp_path / "secret.ngc").write_text("o<secret> sub\nG1 X1 F60\no<secret> endsub\n")
+    (tmp_path / "graph" / "subs" / "secret.ngc").symlink_to(tmp_path / "secret.ngc")
+    g = flowmc.GraphBuilder()
+    g.add("path.gcode_in", id="gin", text="o<secret> call\nM2\n", subroutine_folder="subs")
+    result = run_saved(g, tmp_path / "graph")
+    assert not result.ok and "no file secret.ngc" in result.errors[0]

@@ -9,8 +9,9 @@ rs274 prints an N word, not the line number, in front of each call; so before
 running it we number every line ``N<line>`` (N words are labels only in
 LinuxCNC and change nothing else). Positions are program (work) coordinates as
 the interpreter hands them to the canon layer: rs274 starts at X0 Y0 Z0, and
-offsets (G92, G10 L2) and the XY rotation show up as events, not applied.
-Only X, Y and Z are followed.
+offsets (G92, G10 L2), the XY rotation and tool length offsets show up as events, not applied;
+``CanonProgram.in_machine_coordinates()`` applies them as LinuxCNC's canon layer does (the
+machine starts at its origin). Only X, Y and Z are followed.
 """
 
 from __future__ import annotations
@@ -27,9 +28,11 @@ import numpy as np
 from flowmc.errors import GcodeError
 
 __all__ = [
+    "MACHINE_UNITS_MM",
     "TRAVERSE",
     "FEED",
     "ARC",
+    "NURBS",
     "KIND_NAMES",
     "CanonEvent",
     "CanonProgram",
@@ -39,9 +42,13 @@ __all__ = [
     "run_rs274_file",
 ]
 
-TRAVERSE, FEED, ARC = 0, 1, 2
-KIND_NAMES = ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED")
+TRAVERSE, FEED, ARC, NURBS = 0, 1, 2, 3
+KIND_NAMES = ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED", "NURBS_FEED")
 _KIND = {name: k for k, name in enumerate(KIND_NAMES)}
+
+#: mm per machine unit in the standalone rs274: it reads tool tables and parameter files in inches,
+#: converting with its "external length units" of 0.03937007874016 inch per mm (not exactly 1/25.4).
+MACHINE_UNITS_MM = 1.0 / 0.03937007874016
 
 CONFIG_DIR = Path(__file__).with_name("config")
 TOOL_TABLE = CONFIG_DIR / "tool.tbl"
@@ -74,13 +81,17 @@ class CanonEvent:
     name: str
     values: tuple[float, ...]
     text: str
+    scale: float = 1.0  # mm per program unit when the call was made
 
 
 @dataclass(frozen=True, eq=False)
 class CanonProgram:
     """The moves rs274 made, one row each, in program order; mm and mm/s.
 
-    kind: TRAVERSE / FEED / ARC (names in KIND_NAMES). start, end: (N, 3).
+    kind: TRAVERSE / FEED / ARC / NURBS (names in KIND_NAMES). start, end: (N, 3); rs274 prints no
+    geometry for a NURBS (G5, G5.1, G5.2): its end, and the next move's start, are NaN. A rigid tap
+    (G33.1, RIGID_TAP) is two feed moves, down and back to where it started. rotary: (N, 3) A, B, C
+    at the end of each move (degrees), for moves that index a rotary axis without moving X, Y, Z.
     center: (N, 3) arc centre, its normal coordinate that of the start; NaN for lines.
     normal_axis: 0/1/2 for arcs in the YZ/XZ/XY plane (G19/G18/G17), -1 for lines.
     turn: signed for arcs, +n counter-clockwise about +normal_axis with n-1 extra full
@@ -98,6 +109,7 @@ class CanonProgram:
     feed: np.ndarray
     line: np.ndarray
     events: tuple[CanonEvent, ...]
+    rotary: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.kind.shape[0])
@@ -106,6 +118,39 @@ class CanonProgram:
     def end_position(self) -> np.ndarray:
         """Where the program leaves the tool (X0 Y0 Z0 for a program without moves)."""
         return self.end[-1].copy() if len(self) else np.zeros(3)
+
+    def in_machine_coordinates(self) -> "CanonProgram":
+        """The same moves in machine coordinates: each point p becomes rotate(p + G92 offset, XY
+        rotation) + G5x offset + tool length offset, with the offsets in force at that move, as
+        LinuxCNC's canon layer moves the machine. The first move starts at the machine origin."""
+        g5x, g92, tlo = np.zeros(3), np.zeros(3), np.zeros(3)
+        rot = 0.0
+        events = sorted(self.events, key=lambda e: e.index)
+        end = self.end.copy()
+        center = self.center.copy()
+        k = 0
+        for m in range(len(self)):
+            while k < len(events) and events[k].index <= m:
+                e = events[k]
+                v = np.array(e.values, dtype=float)
+                if e.name == "SET_G5X_OFFSET":
+                    g5x = v[1:4] * e.scale
+                elif e.name == "SET_G92_OFFSET":
+                    g92 = v[0:3] * e.scale
+                elif e.name == "SET_XY_ROTATION":
+                    rot = float(v[0])
+                elif e.name == "USE_TOOL_LENGTH_OFFSET":
+                    tlo = v[0:3] * e.scale
+                k += 1
+            c, s = np.cos(np.radians(rot)), np.sin(np.radians(rot))
+            for arr in (end, center):
+                p = arr[m] + g92
+                arr[m] = (c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]) + g5x + tlo
+        start = np.vstack([np.zeros((1, 3)), end[:-1]])
+        arcs = np.flatnonzero(self.kind == ARC)
+        center[arcs, self.normal_axis[arcs]] = start[arcs, self.normal_axis[arcs]]
+        return CanonProgram(self.source, self.kind, start, end, center, self.normal_axis, self.turn, self.feed,
+                            self.line, self.events, self.rotary)
 
 
 def number_lines(text: str) -> str:
@@ -128,22 +173,31 @@ def number_lines(text: str) -> str:
 
 
 def run_rs274(text: str, *, name: str = "program.ngc", tool_table: str | os.PathLike | None = None,
+              parameters: str | os.PathLike | None = None, subroutine_dir: str | os.PathLike | None = None,
               timeout: float = 120.0) -> CanonProgram:
     """Run LinuxCNC's ``rs274`` on G-code ``text`` and parse what it does.
 
     ``name`` is used in error locations (``name:line``). The tool table defaults to
-    flowmc's (tools 1-9, zero length and diameter), so G43 and G41 change nothing.
-    Raises GcodeError naming the line when the interpreter refuses the program.
+    flowmc's (tools 1-9, zero length and diameter), so G43 and G41 change nothing; rs274 reads
+    tool tables and parameter files in inches. ``parameters`` is a parameter (.var) file to start
+    from (a copy is used); ``subroutine_dir`` is where ``o<name> call`` finds ``name.ngc`` (rs274
+    looks in its working directory). Raises GcodeError naming the line when the interpreter
+    refuses the program.
     """
     table = Path(tool_table) if tool_table is not None else TOOL_TABLE
     with tempfile.TemporaryDirectory(prefix="flowmc-rs274-") as tmp:
         prog = Path(tmp) / "program.ngc"
         prog.write_text(number_lines(text))
+        command = ["rs274", "-t", str(table)]
+        if parameters is not None:
+            var = Path(tmp) / "program.var"
+            var.write_bytes(Path(parameters).read_bytes())
+            command += ["-v", str(var)]
         try:
             done = subprocess.run(
-                ["rs274", "-t", str(table), "-g", str(prog)],
+                command + ["-g", str(prog)],
                 stdin=subprocess.DEVNULL, capture_output=True, text=True,
-                timeout=timeout, cwd=tmp,
+                timeout=timeout, cwd=str(subroutine_dir) if subroutine_dir is not None else tmp,
             )
         except FileNotFoundError as exc:
             raise GcodeError("LinuxCNC's rs274 is not installed (Debian package linuxcnc-uspace)",
@@ -195,21 +249,37 @@ def _forward_fill(n: int, at: np.ndarray, values: np.ndarray, initial) -> np.nda
     return np.where(last >= 0, np.asarray(values)[np.maximum(last, 0)], initial)
 
 
+def _expand_rigid_taps(calls: list) -> list:
+    """RIGID_TAP(x, y, z) goes to the point and back where it started: two feed calls."""
+    out = []
+    here = "0, 0, 0"
+    for nword, call, args in calls:
+        if call == "RIGID_TAP":
+            out.append((nword, "STRAIGHT_FEED", args + ", 0, 0, 0"))
+            out.append((nword, "STRAIGHT_FEED", here + ", 0, 0, 0"))
+            continue
+        if call in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+            here = ", ".join(args.split(",")[:3])
+        out.append((nword, call, args))
+    return out
+
+
 def parse_canon(output: str, *, name: str = "program.ngc") -> CanonProgram:
     """Parse rs274's canonical-call listing into moves and events."""
     calls = _CALL.findall(output)
+    if "RIGID_TAP" in output:
+        calls = _expand_rigid_taps(calls)
     n = len(calls)
     nwords = np.array([c[0] for c in calls], dtype=object)
     names = np.array([c[1] for c in calls], dtype=object)
     args = [c[2] for c in calls]
     line = np.array([int(w) if w.isdigit() else 0 for w in nwords], dtype=np.int64)
 
-    for unsupported in ("NURBS_FEED", "SPLINE_FEED", "STRAIGHT_PROBE", "RIGID_TAP"):
+    for unsupported in ("SPLINE_FEED", "STRAIGHT_PROBE"):
         hit = np.flatnonzero(names == unsupported)
         if hit.size:
-            raise GcodeError(f"the rs274 reference does not follow {unsupported} (G5/G5.x splines,"
-                             " probing and rigid tapping are not printed with their geometry)",
-                             where=f"{name}:{line[hit[0]]}")
+            raise GcodeError(f"the rs274 reference does not follow {unsupported} (probing is not printed "
+                             "with its geometry)", where=f"{name}:{line[hit[0]]}")
 
     def setting(call: str, parse, initial):
         at = np.flatnonzero(names == call)
@@ -220,6 +290,9 @@ def parse_canon(output: str, *, name: str = "program.ngc") -> CanonProgram:
     at = np.flatnonzero(names == "SET_FEED_RATE")
     feed_mm_s = _forward_fill(n, at, np.array([float(args[i]) for i in at]) * scale[at] / 60.0, 0.0)
     per_rev = setting("SET_FEED_MODE", lambda a: int(a.split(",")[-1]) == 1, False)
+    # Spindle-synchronised moves (G33, G33.1) run at pitch x spindle speed, not at F.
+    sync_at = np.flatnonzero(np.isin(names, ["START_SPEED_FEED_SYNC", "STOP_SPEED_FEED_SYNCH"]))
+    synced = _forward_fill(n, sync_at, [names[i] == "START_SPEED_FEED_SYNC" for i in sync_at], False)
     plane = setting("SELECT_PLANE", lambda a: list(_PLANES).index(a.strip()), 0)
 
     is_move = np.isin(names, KIND_NAMES)
@@ -231,8 +304,14 @@ def parse_canon(output: str, *, name: str = "program.ngc") -> CanonProgram:
     normal_axis = np.full(m, -1, dtype=np.int8)
     turn = np.zeros(m, dtype=np.int64)
 
-    straight = np.flatnonzero(kind != ARC)
-    end[straight] = _floats([args[idx[k]] for k in straight], 6)[:, :3]
+    rotary = np.zeros((m, 3))
+    straight = np.flatnonzero((kind == TRAVERSE) | (kind == FEED))
+    values = _floats([args[idx[k]] for k in straight], 6)
+    end[straight] = values[:, :3]
+    rotary[straight] = values[:, 3:6]
+    for k in np.flatnonzero(kind == NURBS):
+        end[k] = np.nan
+        rotary[k] = rotary[k - 1] if k else 0.0
     arcs = np.flatnonzero(kind == ARC)
     if arcs.size:
         vals = _floats([args[idx[k]] for k in arcs], 9)
@@ -246,6 +325,7 @@ def parse_canon(output: str, *, name: str = "program.ngc") -> CanonProgram:
         c[rows, axes[:, 0]] = vals[:, 2]
         c[rows, axes[:, 1]] = vals[:, 3]
         end[arcs] = e
+        rotary[arcs] = vals[:, 6:9]
         center[arcs] = c
         normal_axis[arcs] = axes[:, 2]
         turn[arcs] = vals[:, 4].astype(np.int64)
@@ -256,12 +336,12 @@ def parse_canon(output: str, *, name: str = "program.ngc") -> CanonProgram:
     if arcs.size:
         center[arcs, normal_axis[arcs]] = start[arcs, normal_axis[arcs]]
     feed = feed_mm_s[idx]
-    feed[(kind == TRAVERSE) | per_rev[idx].astype(bool)] = np.nan
+    feed[(kind == TRAVERSE) | per_rev[idx].astype(bool) | synced[idx].astype(bool)] = np.nan
 
     before = np.cumsum(is_move) - is_move
     events = tuple(
         CanonEvent(int(before[i]), int(line[i]), names[i],
-                   tuple(float(v) for v in _NUMBER.findall(args[i])), args[i])
+                   tuple(float(v) for v in _NUMBER.findall(args[i])), args[i], float(scale[i]))
         for i in np.flatnonzero(~is_move & ~np.isin(names, list(_STATE_CALLS)))
     )
-    return CanonProgram(name, kind, start, end, center, normal_axis, turn, feed, line[idx], events)
+    return CanonProgram(name, kind, start, end, center, normal_axis, turn, feed, line[idx], events, rotary)
