@@ -1,11 +1,11 @@
 """flowmc's planner against LinuxCNC on real CAM code and the reference paths, measured in the same run.
 
 Programs: LinuxCNC's own sample programs flowsnake, 3D_Chips, spiral, arcspiral and 3dtest (Debian's
-linuxcnc-uspace installs them in /usr/share/linuxcnc/ncfiles) and the four reference paths. The
-sample programs need more of the G-code language (O-words, parameters, polar and relative moves) than
-flowmc's reader has, so LinuxCNC's own interpreter (rs274) reads them and its canonical moves become
-the Path both sides run. Every feed is set to F12000 mm/min (200 mm/s; 3D_Chips asks for more, the
-axes allow 200), rapids move at 200 mm/s.
+linuxcnc-uspace installs them in /usr/share/linuxcnc/ncfiles) and the four reference paths. flowmc's
+G-code reader (flowmc.motion.gcode, LinuxCNC semantics: O-words, parameters, polar and relative moves)
+reads them; the Path it gives is what both sides run (LinuxCNC gets it back through flowmc's G-code
+writer). Every feed is set to F12000 mm/min (200 mm/s; 3D_Chips asks for more, the axes allow 200),
+rapids move at 200 mm/s.
 
 Both sides: per-axis 200 mm/s, 200 mm/s^2 (and 5000 mm/s^3 for flowmc's S-curve), servo period and
 setpoint period 1 ms, corner tolerance 0.05 mm (LinuxCNC: G64 P0.05 with its default Q; flowmc's
@@ -32,12 +32,12 @@ import numpy as np
 
 from flowmc.devices.linuxcnc.backend import run_program
 from flowmc.devices.linuxcnc.compare import flowmc_feed_time
-from flowmc.devices.linuxcnc.rs274 import ARC, TRAVERSE, run_rs274
+from flowmc.motion.gcode import read_gcode
 from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.lookahead import plan_stop_and_go
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.metrics import contour_error, coverage_error, programmed_polyline
-from flowmc.motion.path import Arc, Line, Path
+from flowmc.motion.path import Path
 from flowmc.motion.planner import plan_smooth
 
 ROOT = FsPath(__file__).resolve().parents[1]
@@ -54,29 +54,9 @@ def machine(jerk: float = JERK, period: float = 0.001) -> Machine:
                    period=period)
 
 
-def canon_path(name: str) -> Path:
-    """The program as LinuxCNC's interpreter moves: its canonical lines and arcs, F12000, rapids at 200 mm/s."""
-    prog = run_rs274((NCFILES / f"{name}.ngc").read_text(), name=f"{name}.ngc")
-    segs = []
-    for k in range(len(prog)):
-        s, e, src = prog.start[k], prog.end[k], f"{name}.ngc:{prog.line[k]}"
-        if prog.kind[k] != ARC:
-            if np.linalg.norm(e - s) > 1e-9:
-                rapid = prog.kind[k] == TRAVERSE
-                segs.append(Line(s, e, feed=FEED, rapid=rapid, tool_down=not rapid, source=src))
-            continue
-        # rs274 accepts arcs whose end radius differs a little from the start's; centre them between
-        axis = int(prog.normal_axis[k])
-        plane = [i for i in range(3) if i != axis]
-        c = prog.center[k].copy()
-        chord = e[plane] - s[plane]
-        if np.linalg.norm(chord) > 1e-9:
-            n = np.array([-chord[1], chord[0]]) / np.linalg.norm(chord)
-            mid = 0.5 * (s[plane] + e[plane])
-            c[plane] = mid + n * np.dot(c[plane] - mid, n)
-        turn = int(prog.turn[k])
-        segs.append(Arc(s, e, c, normal_axis=axis, ccw=turn > 0, turns=abs(turn) - 1, feed=FEED, source=src))
-    return Path(segs)
+def program_path(name: str) -> Path:
+    """The program as flowmc's G-code reader reads it (LinuxCNC semantics), every feed F12000."""
+    return read_gcode(NCFILES / f"{name}.ngc").with_feed(FEED)
 
 
 def reference_path(name: str) -> Path:
@@ -114,7 +94,7 @@ def main() -> None:
     m = machine()
     rows = []
     for name in args.names:
-        path = canon_path(name) if name in CAM else reference_path(name)
+        path = program_path(name) if name in CAM else reference_path(name)
         t0 = time.perf_counter()
         trap = plan_smooth(path, m, tolerance=TOL)
         wall_trap = time.perf_counter() - t0
@@ -142,34 +122,30 @@ def main() -> None:
 
 
 def cold_start(name: str = "3D_Chips", runs: int = 3) -> None:
-    """Wall time of rs274 interpreting the program, beside a fresh Python process that imports flowmc,
-    reads rs274's canonical moves (saved beforehand) and plans them (trapezoid): medians of ``runs``."""
+    """Wall time of LinuxCNC's rs274 interpreting the program, beside a fresh Python process that imports
+    flowmc, reads the program and plans it (trapezoid, T = 1 ms): medians of ``runs``."""
     import statistics
     import tempfile
 
     from flowmc.devices.linuxcnc.rs274 import number_lines
 
+    table = ROOT / "flowmc" / "devices" / "linuxcnc" / "config" / "tool.tbl"
+    script = (f"import sys; sys.path.insert(0, {str(FsPath(__file__).parent)!r}); import cam_programs as c; "
+              f"from flowmc.motion.planner import plan_smooth; "
+              f"plan_smooth(c.program_path({name!r}), c.machine(), tolerance=c.TOL)")
+    timings = {"rs274": [], "flowmc": []}
     with tempfile.TemporaryDirectory() as tmp:
         prog = FsPath(tmp) / f"{name}.ngc"
         prog.write_text(number_lines((NCFILES / f"{name}.ngc").read_text()))
-        canon = FsPath(tmp) / "canon.txt"
-        table = ROOT / "flowmc" / "devices" / "linuxcnc" / "config" / "tool.tbl"
-        cmd = ["rs274", "-t", str(table), "-g", str(prog)]
-        canon.write_text(subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL).stdout)
-        script = (f"import sys; sys.path.insert(0, {str(FsPath(__file__).parent)!r}); import cam_programs as c; "
-                  f"from flowmc.devices.linuxcnc.rs274 import parse_canon; "
-                  f"c.run_rs274 = lambda text, name: parse_canon(open({str(canon)!r}).read(), name=name); "
-                  f"from flowmc.motion.planner import plan_smooth; "
-                  f"plan_smooth(c.canon_path({name!r}), c.machine(), tolerance=c.TOL)")
-        timings = {"rs274": [], "flowmc": []}
         for _ in range(runs):
-            for key, argv in (("rs274", cmd), ("flowmc", [sys.executable, "-c", script])):
+            for key, argv in (("rs274", ["rs274", "-t", str(table), "-g", str(prog)]),
+                              ("flowmc", [sys.executable, "-c", script])):
                 t0 = time.perf_counter()
-                subprocess.run(argv, capture_output=True, stdin=subprocess.DEVNULL, check=True)
+                subprocess.run(argv, capture_output=True, stdin=subprocess.DEVNULL, check=True, cwd=tmp)
                 timings[key].append(time.perf_counter() - t0)
     rs, fm = statistics.median(timings["rs274"]), statistics.median(timings["flowmc"])
-    print(f"\nCold process, {name}: rs274 interprets it in {rs:.2f} s; flowmc imports, reads rs274's moves and "
-          f"plans them (trapezoid, T = 1 ms) in {fm:.2f} s (medians of {runs})")
+    print(f"\nCold process, {name}: rs274 interprets it in {rs:.2f} s; flowmc imports, reads and plans it "
+          f"(trapezoid, T = 1 ms) in {fm:.2f} s (medians of {runs})")
 
 
 def report(rows: list[dict], args) -> None:
