@@ -98,10 +98,11 @@ def main() -> None:
     loop_total = per_run * variants
     print(f"\nSweep of {GRAPH.name}: {variants} variants ({len(tols)} tolerances x {len(RULES)} rules), "
           f"{os.cpu_count()} cores, medians of {args.rounds} rounds run side by side\n")
-    print(f"| how | workers | wall s | variants/s | vs loop | run phase s | per-variant overhead ms | nodes cached |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| how | workers | wall s | variants/s | vs loop | run phase s | in a variant ms | per-variant overhead ms "
+          "| nodes cached |")
+    print("|---|---|---|---|---|---|---|---|---|")
     print(f"| shell loop of `flowmc run` ({len(results['loop'])} runs timed, x{variants} scaled) | 1 | {loop_total:.1f} | "
-          f"{variants / loop_total:.2f} | 1x | - | {1000 * per_run:.0f} (one process each) | 0 |")
+          f"{variants / loop_total:.2f} | 1x | - | - | {1000 * per_run:.0f} (a process each) | 0 |")
     run_phase = {}
     for executor, workers in CONFIGS:
         rounds = results[(executor, workers)]
@@ -110,13 +111,13 @@ def main() -> None:
         run_phase[(executor, workers)] = statistics.median(r["run"] for r in rounds)
         overhead = statistics.median(r["overhead_ms"] for r in rounds)
         cached = statistics.median(r["cached"] for r in rounds)
+        inside = statistics.median(r["inside"] for r in rounds)
         nodes = rounds[0]["nodes"]
         print(f"| `flowmc sweep --executor {executor}` | {workers} | {wall:.1f} | {variants / wall:.1f} | "
-              f"{loop_total / wall:.0f}x | {run_phase[(executor, workers)]:.2f} | {overhead:.1f} | "
+              f"{loop_total / wall:.0f}x | {run_phase[(executor, workers)]:.2f} | {1000 * inside:.1f} | {overhead:.1f} | "
               f"{cached:.1f} of {nodes:.0f} |")
-    inside = statistics.median(r["inside"] for rounds in results.values() if rounds and isinstance(rounds[0], dict)
-                               for r in rounds)
-    print(f"\nA variant inside a worker (median): {1000 * inside:.1f} ms.")
+    print("\nin a variant: median time a worker spent inside one variant (it grows when the workers do not get a "
+          "core each).")
     for executor in ("local", "dask"):
         print(f"Scaling {executor}, 1 -> 2 workers: run phase {run_phase[(executor, 1)]:.2f} s -> "
               f"{run_phase[(executor, 2)]:.2f} s ({run_phase[(executor, 1)] / run_phase[(executor, 2)]:.2f}x)")

@@ -72,6 +72,7 @@ class NodeType:
     outputs: ClassVar[tuple[Out, ...]] = ()
     fixed_params: ClassVar[tuple[str, ...]] = ()  # scalar params that cannot be fed by a wire
     host_resources: ClassVar[tuple[str, ...]] = ()  # what a run holds on its host, e.g. "linuxcnc" (one per host)
+    reads: ClassVar[tuple[str, ...]] = ()  # params naming every file or folder it reads: cached while they are unchanged
 
     @classmethod
     def ports(cls, params: BaseModel) -> Ports:
@@ -163,9 +164,10 @@ def _check_declaration(cls: type) -> None:
         fail("must define run(self, ctx, params, **inputs)")
     if not all(isinstance(p, In) for p in cls.inputs) or not all(isinstance(p, Out) for p in cls.outputs):
         fail("inputs must be a tuple of In(...), outputs a tuple of Out(...)")
-    for name in cls.fixed_params:
-        if name not in cls.Params.model_fields:
-            fail(f"fixed_params names unknown param {name!r}")
+    for attribute in ("fixed_params", "reads"):
+        for name in getattr(cls, attribute):
+            if name not in cls.Params.model_fields:
+                fail(f"{attribute} names unknown param {name!r}")
     _param_port_cache.pop(cls, None)
     _check_ports(fail, cls.inputs + _param_ports(cls), cls.outputs)
 

@@ -20,8 +20,9 @@ __all__ = ["Change", "Event", "DeviceLog", "CHANGE_KINDS", "OUTCOMES"]
 #: and the tool (pen) state, 1 down / 0 up (besides the output that carries it, as the spindle's are).
 CHANGE_KINDS = ("din", "dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm", "tool")
 
-#: How an operation ended. ``done``: as commanded; the rest name what stopped it.
-OUTCOMES = ("done", "limit", "soft_limit", "estop", "error", "alarm", "home_failed")
+#: How an operation ended. ``done``: as commanded; the rest name what stopped it (``aborted``: a job's
+#: controlled stop, asked for by the operator).
+OUTCOMES = ("done", "limit", "soft_limit", "estop", "error", "alarm", "home_failed", "aborted")
 
 
 class Change(NamedTuple):
@@ -117,6 +118,13 @@ class DeviceLog:
             return self.axes.index(name)
         except ValueError:
             raise KeyError(f"no axis {name!r} in this log; axes: {self.axes}") from None
+
+    def amended(self, changes=(), events=(), outcome: str | None = None, state: dict | None = None) -> "DeviceLog":
+        """This log with more changes and events (a job leaving the outputs safe after it), another outcome
+        or end state."""
+        return DeviceLog(self.device, self.axes, self.period, self.t, self.steps, self.position, self.following_error,
+                         self.changes + tuple(changes), sorted(self.events + tuple(events), key=lambda e: e.t),
+                         outcome or self.outcome, self.state if state is None else state)
 
     def events_of(self, kind: str) -> tuple[Event, ...]:
         return tuple(e for e in self.events if e.kind == kind)

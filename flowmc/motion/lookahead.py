@@ -466,7 +466,7 @@ def _sample(pieces: Pieces, runs: _Runs, phases: _Phases, path: Path, machine: M
     tags = pieces.seg[piece]
     traj = Trajectory(pos[:, cols], period, tags, axes=tuple("XYZ"[c] for c in cols),
                       signals=path_signals(path, segment_start_times(tags, period, len(path))),
-                      segment_names=path.segment_names())
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
     corner_times = starts[np.searchsorted(phases.run, np.flatnonzero(runs.corner[1:-1]) + 1)]
     return Plan(traj, s, run, runs.vmax, accel_used, runs.jerk, v, corner_times)
 

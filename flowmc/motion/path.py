@@ -645,6 +645,11 @@ class Path:
         path carries as ``segment_names``, so messages can say ``segment 5 (row 4)``."""
         return tuple(seg.source or "" for seg in self.segments)
 
+    def segment_rapid(self) -> tuple[bool, ...]:
+        """Each segment's rapid flag: what a Trajectory or Steps planned from this path carries as
+        ``segment_rapid``, so a job's rapid override knows which moves are rapids."""
+        return tuple(bool(seg.rapid) for seg in self.segments)
+
     @property
     def start(self) -> np.ndarray:
         if not self.segments:

@@ -187,4 +187,5 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
     segment = np.concatenate(labels) if labels else np.zeros(0, dtype=np.int64)
     signals = path_signals(path, step_start_times(segment, tick, len(path)))
     return Steps(steps, step, np.array(origin, dtype=float) * step, tick=tick, segment=segment, axes=("X", "Y"),
-                 signals=signals, segment_names=path.segment_names())
+                 signals=signals, segment_names=path.segment_names(),
+                 segment_rapid=path.segment_rapid())

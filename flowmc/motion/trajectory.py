@@ -77,6 +77,21 @@ def _names(names, segment: np.ndarray) -> tuple[str, ...]:
     return out
 
 
+def _rapid(flags, segment: np.ndarray) -> tuple[bool, ...]:
+    """Rapid flags checked: one bool for every segment index the rows use (or none at all)."""
+    out = tuple(bool(f) for f in flags)
+    if out and len(segment) and (segment.min() < 0 or segment.max() >= len(out)):
+        raise ValueError(f"segment indices {int(segment.min())}..{int(segment.max())} do not fit the "
+                         f"{len(out)} rapid flags")
+    return out
+
+
+def _rapid_rows(flags: tuple[bool, ...], segment: np.ndarray) -> np.ndarray:
+    if not any(flags):
+        return np.zeros(len(segment), dtype=bool)
+    return np.asarray(flags, dtype=bool)[segment]
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Setpoints at period T: row k is the commanded position at t = k*T (row 0 is the start).
@@ -85,6 +100,8 @@ class Trajectory:
     ``segment_names[i]`` where segment i came from (its ``source``; "" for none; empty when not
     known), so a device or a pre-flight check can name the segment of any sample as the user knows
     it: ``describe_segment(segment[k], segment_names)`` -> ``"segment 5 (row 4)"``.
+    ``segment_rapid[i]``: segment i is a rapid (a job's rapid override applies to it); empty when not
+    known (every segment is a feed move).
     """
 
     positions: np.ndarray
@@ -93,9 +110,10 @@ class Trajectory:
     axes: tuple[str, ...] = ("X", "Y", "Z")
     signals: Signal = field(default_factory=Signal)
     segment_names: tuple[str, ...] = ()
+    segment_rapid: tuple[bool, ...] = ()
 
     def __init__(self, positions, period: float, segment=None, axes=("X", "Y", "Z"), signals: Signal | None = None,
-                 segment_names=()):
+                 segment_names=(), segment_rapid=()):
         pos = frozen_array(positions, ndim=2)
         if pos.shape[1] != len(axes):
             raise ValueError(f"positions have {pos.shape[1]} columns but {len(axes)} axes {tuple(axes)}")
@@ -110,9 +128,14 @@ class Trajectory:
         object.__setattr__(self, "axes", tuple(axes))
         object.__setattr__(self, "signals", signals if signals is not None else Signal())
         object.__setattr__(self, "segment_names", _names(segment_names, self.segment))
+        object.__setattr__(self, "segment_rapid", _rapid(segment_rapid, self.segment))
 
     def __len__(self) -> int:
         return len(self.positions)
+
+    def rapid_rows(self) -> np.ndarray:
+        """Per row: does it belong to a rapid segment (all False when that is not known)."""
+        return _rapid_rows(self.segment_rapid, self.segment)
 
     @property
     def duration(self) -> float:
@@ -136,7 +159,7 @@ class Trajectory:
 
     def digest(self) -> str:
         return array_digest("Trajectory", self.positions, self.period, self.segment, self.axes, self.signals.digest(),
-                            self.segment_names)
+                            self.segment_names, *((self.segment_rapid,) if any(self.segment_rapid) else ()))
 
     def summary(self) -> dict:
         v = self.speed() if len(self) > 1 else np.zeros(1)
@@ -165,8 +188,8 @@ class Steps:
     signal times are tick indices: ``t = i``. Extra signals sent with an untimed stream (a device's
     ``run(steps, signals)``) are read the same way.
 
-    ``segment`` and ``segment_names`` are as on a ``Trajectory``: the path segment index of each row
-    and where each segment came from.
+    ``segment``, ``segment_names`` and ``segment_rapid`` are as on a ``Trajectory``: the path segment
+    index of each row, where each segment came from and which are rapids.
     """
 
     steps: np.ndarray
@@ -177,9 +200,10 @@ class Steps:
     axes: tuple[str, ...] = ("X", "Y")
     signals: Signal = field(default_factory=Signal)
     segment_names: tuple[str, ...] = ()
+    segment_rapid: tuple[bool, ...] = ()
 
     def __init__(self, steps, step_mm, origin=None, tick: float = 0.0, segment=None, axes=("X", "Y"), signals=None,
-                 segment_names=()):
+                 segment_names=(), segment_rapid=()):
         st = np.asarray(steps, dtype=np.int8)
         if st.ndim != 2 or st.shape[1] != len(axes):
             raise ValueError(f"steps must have shape (N, {len(axes)}) for axes {tuple(axes)}, got {st.shape}")
@@ -195,9 +219,14 @@ class Steps:
         object.__setattr__(self, "axes", tuple(axes))
         object.__setattr__(self, "signals", signals if signals is not None else Signal())
         object.__setattr__(self, "segment_names", _names(segment_names, self.segment))
+        object.__setattr__(self, "segment_rapid", _rapid(segment_rapid, self.segment))
 
     def __len__(self) -> int:
         return len(self.steps)
+
+    def rapid_rows(self) -> np.ndarray:
+        """Per row: does it belong to a rapid segment (all False when that is not known)."""
+        return _rapid_rows(self.segment_rapid, self.segment)
 
     def counts(self) -> np.ndarray:
         """Position in steps after each tick, relative to the origin, shape (N, n_axes)."""
@@ -210,7 +239,8 @@ class Steps:
 
     def digest(self) -> str:
         return array_digest("Steps", self.steps, self.step_mm, self.origin, self.tick, self.segment, self.axes,
-                            self.signals.digest(), self.segment_names)
+                            self.signals.digest(), self.segment_names,
+                            *((self.segment_rapid,) if any(self.segment_rapid) else ()))
 
     def summary(self) -> dict:
         end = self.positions()[-1]

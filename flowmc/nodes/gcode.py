@@ -49,8 +49,9 @@ class GcodeIn(NodeType):
     title = "G-code in"
     category = "Path"
     description = "Read G-code as LinuxCNC does (parameters, O-words, offsets, tools, cycles, cutter comp) as a path."
-    pure = False  # the files may change between runs
     fixed_params = ("file", "tool_table", "parameter_file", "subroutine_folder")
+    # cached while these files (and the subroutine folder's files) are unchanged: their sizes and times are in the key
+    reads = ("file", "tool_table", "parameter_file", "subroutine_folder")
     version = 2
     Params = GcodeInParams
     outputs = (Out("path", "Path", doc="The program's moves, dwells, pauses and tool changes, in machine "

@@ -21,7 +21,7 @@ from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, Issue, load
 from flowmc.registry import Registry
 from flowmc.runtime.cache import CacheEntry, NodeCache, signature
-from flowmc.runtime.context import NodeContext, Site
+from flowmc.runtime.context import NodeContext, Site, resolve_inside
 from flowmc.runtime.events import Event, EventBus, Listener
 from flowmc.runtime.schedule import Plan, make_plan
 from flowmc.runtime.validate import BoundNode, value_matches
@@ -253,7 +253,7 @@ class _Run:
 
     def step(self, node: BoundNode) -> None:
         wired, digests = self.gather(node)
-        sig = signature(node.static, digests)
+        sig = signature(node.static, digests + _file_stamps(node, wired, self.plan.site))
         if node.pure:
             entry = self.runtime.cache.get(node.id, sig)
             if entry is not None:
@@ -297,6 +297,24 @@ class _Run:
         outputs = node.cls().run(ctx, params, **kwargs)
         _check_outputs(node, outputs)
         return outputs
+
+
+def _file_stamps(node: BoundNode, wired: dict[str, Any], site: Site) -> list[tuple[str, str]]:
+    """Sizes and modification times of what a node reads (``NodeType.reads``: files, or folders whose files
+    it may read): a pure node that reads files is cached while they are unchanged."""
+    stamps = []
+    for name in node.cls.reads:
+        rel = wired[name] if name in wired else node.raw_params.get(name)
+        if not rel:
+            continue
+        try:
+            path = resolve_inside(site.root, site.graph_dir, rel)
+            entries = sorted(os.scandir(path), key=lambda e: e.name) if path.is_dir() else [path]
+            listing = ";".join(f"{getattr(e, 'name', '')}:{e.stat().st_mtime_ns}:{e.stat().st_size}" for e in entries)
+            stamps.append((f"file:{name}", digest(listing)))
+        except (FlowmcError, OSError, TypeError):
+            stamps.append((f"file:{name}", "unreadable"))  # the node runs, and says what is wrong
+    return stamps
 
 
 def _params_with_wires(node: BoundNode, wired: dict[str, Any]) -> Any:

@@ -38,6 +38,20 @@ def default_workers() -> int:
 
 _process_job: Job | None = None
 _START_TIMEOUT = 120.0
+_MATH_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def _one_math_thread_each() -> Iterator[None]:
+    """Worker processes started meanwhile use one BLAS/OpenMP thread each, as Dask's workers do: the
+    processes are the parallelism, and more threads per process only fight over the cores."""
+    added = {k: "1" for k in _MATH_THREADS if k not in os.environ}
+    os.environ.update(added)
+    try:
+        yield
+    finally:
+        for key in added:
+            os.environ.pop(key, None)
 
 
 def _init_process(job: Job, ready: Any) -> None:
@@ -73,7 +87,9 @@ class LocalExecutor:
                                             initargs=(job, context.Barrier(self.workers)))
         self._pending: dict[cf.Future, list[Variant]] = {}
         try:  # start every worker now (the pool starts one per waiting task): start-up is not a variant's time
-            for future in [self._pool.submit(_started) for _ in range(self.workers)]:
+            with _one_math_thread_each():
+                started = [self._pool.submit(_started) for _ in range(self.workers)]
+            for future in started:
                 future.result(timeout=_START_TIMEOUT + 30)
         except BaseException as exc:
             self._pool.shutdown(wait=False, cancel_futures=True)

@@ -179,7 +179,7 @@ def run_variant(job: Job, loaded: _Loaded, variant: Variant) -> dict[str, Any]:
         else:
             outputs = {name: summarize(value) for name, value in result.outputs.items()}
         row.update(status="done" if result.ok else "failed", error="; ".join(result.errors), outputs=outputs,
-                   ran=len(result.executed), cached=len(result.cached))
+                   ran=len(result.executed), cached=len(result.cached), executed=result.executed)
     row.update(duration_s=time.perf_counter() - t0, start=start, end=time.time(), worker=_worker_name())
     return row
 

@@ -235,3 +235,27 @@ def test_table_is_immutable_and_summarises():
     assert big.summary()["stats"]["a"] == {"min": 0.0, "max": 99.0, "mean": 49.5}
     with pytest.raises(flowmc.FlowmcError, match="has 1 rows, expected 3"):
         Table({"a": [1, 2, 3], "b": [1]})
+
+
+def test_a_node_that_reads_a_file_is_cached_while_the_file_is_unchanged(tmp_path, registry):
+    import os
+
+    program = tmp_path / "part.ngc"
+    program.write_text("G21 G90\nG1 X10 F600\n")
+    g = flowmc.GraphBuilder()
+    src = g.add("path.gcode_in", id="gcode", file="part.ngc")
+    g.output("path", "Path", src.path)
+    graph = g.build()
+    graph.path = tmp_path / "g.flowmc.json"
+    runtime = flowmc.Runtime(registry)
+    first = runtime.run(graph)
+    assert first.ok and first.executed == ["gcode"]
+    assert runtime.run(graph).cached == ["gcode"]  # the same file: not read again
+    program.write_text("G21 G90\nG1 X10 Y5 F600\n")
+    os.utime(program, ns=(program.stat().st_atime_ns, program.stat().st_mtime_ns + 10**9))
+    changed = runtime.run(graph)
+    assert changed.executed == ["gcode"] and changed.outputs["path"].end.tolist() == [10.0, 5.0, 0.0]
+    program.unlink()
+    assert not runtime.run(graph).ok  # a file gone is read again, and says so
+    with pytest.raises(TypeError, match="reads names unknown param 'nope'"):
+        registry.add(type("Bad", (registry.lookup("path.gcode_in"),), {"reads": ("nope",), "type_id": "test.bad"}))

@@ -71,12 +71,15 @@ def test_a_folder_of_programs_shipped_to_the_workers(cluster, tmp_path, monkeypa
                   ship=True, skip=(job / "out",))
     kept = tmp_path / "kept"
     shutil.move(job / "programs", kept)  # from here on, only the shipped copy has the programs
-    sweep_on(cluster, sweep, job / "out")
+    sweep_on(cluster, sweep, job / "out", size=2)  # a batch holds one program's two variants
     shutil.move(kept, job / "programs")
     rows = sorted(Journal(job / "out", resume=True).rows.values(), key=lambda r: r["variant"])
     assert [r["params"]["gcode.file"] for r in rows] == ["programs/a_square.ngc"] * 2 + ["programs/b_chamfer.ngc"] * 2 \
         + ["programs/c_triangle.ngc"] * 2
     assert {r["status"] for r in rows[2:4]} == {"failed"}  # the chamfered square takes 5.88 s > 5.7
+    for k in (0, 2, 4):  # the rows of one program ran on one worker, which parsed it once
+        assert rows[k]["worker"] == rows[k + 1]["worker"]
+        assert ["gcode" in r["executed"] for r in rows[k:k + 2]] == [True, False]
     assert_same_as_run_alone(graph_path, rows, tmp_path)
 
 

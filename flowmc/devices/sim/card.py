@@ -249,12 +249,14 @@ class SimCard(MotionCard):
                 return row if row < rows else None
         return None
 
-    def _execute(self, command: np.ndarray, rules, until_trip: bool = False) -> _Piece:
-        """Run a stretch of commanded counts from the current state; updates the state; appends a piece."""
+    def _execute(self, command: np.ndarray, rules, until_trip: bool = False, loop=None) -> _Piece:
+        """Run a stretch of commanded counts from the current state; updates the state; appends a piece.
+
+        ``loop``: a ``LoopStream`` carrying the closed loop between stretches (a job in real time)."""
         t0 = self._tick
         estop_row = self._estop_row(t0, len(command))
-        done: Executed = execute(command, rules, self.step_mm, estop_row=estop_row, loop=self.loop,
-                                 until_trip=until_trip)
+        done: Executed = execute(command, rules, self.step_mm, estop_row=estop_row,
+                                 loop=loop if loop is not None else self.loop, until_trip=until_trip)
         rows = len(done.command)
         changes: list = []
         estop_row = self._take_inputs(t0, t0 + rows - 1, changes)
@@ -325,17 +327,7 @@ class SimCard(MotionCard):
             preflight(motion, self.machine, signals, ranges=self.ranges)
         self._ready()
         program, segment, program_dt, tick = self._program_counts(motion)
-        sig = program_signals(motion, signals)
-        if isinstance(motion, Steps) and motion.tick <= 0:  # untimed: signal times are tick indices
-            sig = Signal(sig.t * tick, sig.kind, sig.channel, sig.value)
-        lift = "tool" in sig.kind.tolist() and self._outputs.tool_down  # a program's tool starts up
-        trial = copy.deepcopy(self._outputs)
-        if lift:
-            trial.apply("tool", 0, 0.0, self.clock, where="program start (the tool starts up)")
-        self._apply_signals(sig, trial, 0, len(program) - 1, program_dt)  # all valid?
-        if lift:  # before the approach move too: the pen must not draw it
-            self._pieces.append(_Piece(self._tick, self._counts[None, :].copy(), self._actual[None, :].copy(),
-                                       self._outputs.apply("tool", 0, 0.0, self.clock)))
+        sig = self.checked_signals(motion, signals, tick, len(program))
         rules = self._motion_rules()
         start = program[0]
         if np.any(start != self._counts):
@@ -355,6 +347,27 @@ class SimCard(MotionCard):
         piece.changes += self._apply_signals(sig, self._outputs, piece.t0, last, program_dt)
         return self._log()
 
+    def checked_signals(self, motion, signals: Signal | None, tick: float, rows: int) -> Signal:
+        """The program's signals in card seconds, all checked against the outputs before anything moves;
+        lifts the tool first when the program uses it and it is down (before any approach move too)."""
+        sig = program_signals(motion, signals)
+        if isinstance(motion, Steps) and motion.tick <= 0:  # untimed: signal times are tick indices
+            sig = Signal(sig.t * tick, sig.kind, sig.channel, sig.value)
+        lift = "tool" in sig.kind.tolist() and self._outputs.tool_down  # a program's tool starts up
+        trial = copy.deepcopy(self._outputs)
+        if lift:
+            trial.apply("tool", 0, 0.0, self.clock, where="program start (the tool starts up)")
+        self._apply_signals(sig, trial, 0, rows - 1, self.period)  # all valid?
+        if lift:  # before the approach move too: the pen must not draw it
+            self.output_now("tool", 0, 0.0)
+        return sig
+
+    def output_now(self, kind: str, channel: int, value: float, where: str = "sim card") -> list[Change]:
+        """Set one output at the card's clock now (a job applying its program's signals as it goes)."""
+        changes = self._outputs.apply(kind, channel, value, self.clock, where=where)
+        self._pieces.append(_Piece(self._tick, self._counts[None, :].copy(), self._actual[None, :].copy(), changes))
+        return changes
+
     def _in_segment(self, event: Event, t0: int, segment: np.ndarray, names: tuple[str, ...]) -> Event:
         row = min(int(round(event.t / self.period)) - t0, len(segment) - 1)
         return event._replace(message=f"{event.message} ({describe_segment(int(segment[row]), names)})")
@@ -372,6 +385,12 @@ class SimCard(MotionCard):
     def _program_counts(self, motion) -> tuple[np.ndarray, np.ndarray, float, float]:
         """The program as commanded counts per card period for every machine axis, with segments, the
         period and the program's own time step (a step stream's tick: the one chosen when untimed)."""
+        pos, seg, T, tick = self.program_positions(motion)
+        return np.rint(pos / self.step_mm).astype(np.int64), seg, T, tick
+
+    def program_positions(self, motion) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """The program in mm per card period for every machine axis (axes it does not name stay where
+        they are), with segments, the period and the program's own time step."""
         cols = axis_columns(motion.axes, self.machine)
         T = self.period
         if isinstance(motion, Trajectory):
@@ -383,7 +402,7 @@ class SimCard(MotionCard):
                 seg = motion.segment[np.searchsorted(motion.times, times, side="right") - 1]
             else:
                 seg = np.asarray(motion.segment)
-            part = np.rint(pos / self.step_mm[cols]).astype(np.int64)
+            part = pos
             tick = motion.period
         elif isinstance(motion, Steps):
             tick = motion.tick if motion.tick > 0 else self._untimed_tick(motion, cols)
@@ -391,11 +410,11 @@ class SimCard(MotionCard):
             counts = np.vstack([np.zeros((1, len(cols)), dtype=np.int64), motion.counts()])
             rows = math.ceil(len(motion) * tick / T - 1e-9) + 1
             done = np.minimum(np.floor(np.arange(rows) * T / tick + 1e-9).astype(np.int64), len(motion))
-            part = origin + counts[done]
+            part = (origin + counts[done]) * self.step_mm[cols]
             seg = np.concatenate([motion.segment[:1], motion.segment])[done] if len(motion) else np.zeros(1, int)
         else:
             raise DeviceError(f"a card runs a Trajectory or Steps, not {type(motion).__name__}", where="sim card")
-        program = np.repeat(self._counts[None, :], len(part), axis=0)
+        program = np.repeat((self._counts * self.step_mm)[None, :], len(part), axis=0)
         program[:, cols] = part
         return program, seg, T, tick
 

@@ -87,8 +87,10 @@ def execute(command: np.ndarray, rules, step_mm: np.ndarray, *, estop_row: int |
     """Apply stop rules and an e-stop (every axis stops at ``estop_row``, the end) to ``command`` (N, n) counts.
 
     ``until_trip`` ends the sequence at the first trip (homing phases). In closed loop the command
-    is held at its last value until every axis has settled, so the result may be longer than given.
+    is held at its last value until every axis has settled, so the result may be longer than given;
+    with a ``LoopStream`` (a job fed a stretch at a time) it is neither padded nor settled here.
     """
+    streaming = getattr(loop, "streaming", False)
     cmd = np.array(command, dtype=np.int64)
     n_rows = len(cmd)
     if estop_row is not None and estop_row >= n_rows:
@@ -104,7 +106,8 @@ def execute(command: np.ndarray, rules, step_mm: np.ndarray, *, estop_row: int |
             cmd = cmd[:min(t.row for t in trips.values()) + 1]
         return Executed(cmd, cmd * step_mm, tuple(sorted(trips.values(), key=lambda t: (t.row, t.rule.axis))),
                         estop_row)
-    cmd = _padded(cmd, loop)
+    if not streaming:
+        cmd = _padded(cmd, loop)
     actual = loop.response(cmd * step_mm)
     for rule in rules:
         if rule.on_command:
@@ -117,8 +120,11 @@ def execute(command: np.ndarray, rules, step_mm: np.ndarray, *, estop_row: int |
         hold = math.ceil(where - 1e-9) if rule.direction > 0 else math.floor(where + 1e-9)
         trips[rule.axis] = Trip(k, rule, hold)
         cmd[k:, rule.axis] = hold
-        actual[:, rule.axis] = loop.response(cmd[:, rule.axis:rule.axis + 1] * step_mm[rule.axis])[:, 0]
+        held = cmd[:, rule.axis:rule.axis + 1] * step_mm[rule.axis]
+        actual[:, rule.axis] = (loop.response(held, rule.axis) if streaming else loop.response(held))[:, 0]
     base = n_rows
+    if streaming:
+        return Executed(cmd, actual, tuple(sorted(trips.values(), key=lambda t: (t.row, t.rule.axis))), estop_row)
     if until_trip and trips:
         base = min(t.row for t in trips.values()) + 1
         cmd = _padded(cmd[:base], loop)

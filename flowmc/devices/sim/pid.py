@@ -22,7 +22,7 @@ from scipy import signal
 
 from flowmc.errors import DeviceError
 
-__all__ = ["LoopSettings", "PositionLoop"]
+__all__ = ["LoopSettings", "PositionLoop", "LoopStream"]
 
 
 @dataclass(frozen=True)
@@ -82,3 +82,40 @@ class PositionLoop:
         r0 = r[0]
         w = np.vstack([r[1:], r[-1:]]) - r0  # w_k = r_{k+1}: the card knows the next setpoint
         return signal.lfilter(self._b, self._a, w, axis=0) + r0
+
+    def stream(self, start_mm: np.ndarray) -> "LoopStream":
+        """The loop fed a stretch of setpoints at a time, from rest at ``start_mm`` (the real-time mode)."""
+        return LoopStream(self, start_mm)
+
+
+class LoopStream:
+    """The closed loop carried from one stretch of setpoints to the next (``lfilter`` state kept).
+
+    ``response(setpoints)``: row 0 is the setpoint already reached (its motor position is the current
+    one), rows 1.. continue from the kept state; the state moves on only at ``commit()``, so a
+    stretch can be redone (a switch that trips mid-stretch holds an axis, and the stretch is rerun).
+    The motor position after a setpoint does not depend on the next one (no direct feed-through), so
+    every row's position is known when the row is given.
+    """
+
+    streaming = True
+
+    def __init__(self, loop: PositionLoop, start_mm: np.ndarray):
+        self.loop = loop
+        self.settle_rows = loop.settle_rows
+        self.r0 = np.asarray(start_mm, dtype=float).copy()
+        order = max(len(loop._a), len(loop._b)) - 1
+        self.zi = np.zeros((order, len(self.r0)))
+        self._next = self.zi.copy()
+
+    def response(self, setpoints: np.ndarray, column: int | None = None) -> np.ndarray:
+        cols = slice(None) if column is None else slice(column, column + 1)
+        sp = np.asarray(setpoints, dtype=float) - self.r0[cols]
+        b, a = self.loop._b, self.loop._a
+        y, zf = signal.lfilter(b, a, sp[1:], axis=0, zi=self.zi[:, cols])
+        last, _ = signal.lfilter(b, a, np.zeros((1, sp.shape[1])), axis=0, zi=zf)
+        self._next[:, cols] = zf
+        return np.vstack([y, last]) + self.r0[cols] if len(sp) > 1 else last + self.r0[cols]
+
+    def commit(self) -> None:
+        self.zi = self._next.copy()

@@ -1,0 +1,18 @@
+"""Which driver runs a job: the device's own (GRBL, LinuxCNC), or the simulated card's at the job's pace."""
+
+from __future__ import annotations
+
+__all__ = ["driver_for"]
+
+
+def driver_for(runner, card):
+    """A driver with ``run() -> DeviceLog`` for this runner's job on ``card``."""
+    from flowmc.devices.sim.card import SimCard
+
+    if isinstance(card, SimCard):
+        from flowmc.devices.jobs.sim_driver import SimInstant, SimStream
+
+        return SimInstant(runner, card) if runner.pace == "instant" else SimStream(runner, card)
+    from flowmc.devices.jobs.card_driver import InstantDriver
+
+    return InstantDriver(runner, card)
