@@ -11,8 +11,9 @@ Both sides: per-axis 200 mm/s, 200 mm/s^2 (and 5000 mm/s^3 for flowmc's S-curve)
 setpoint period 1 ms, corner tolerance 0.05 mm (LinuxCNC: G64 P0.05 with its default Q; flowmc's
 blend tolerance). LinuxCNC runs through flowmc's own LinuxCNC backend (the real simulator, samples
 every servo period). Times are feed moves only, as LinuxCNC counts them. Every other figure comes from
-the raw 1 ms samples: deviation both ways (samples to the programmed path, and the path to the
-samples), peak per-axis velocity, acceleration and jerk over the limit. ``TOPP-RA`` is the per-axis
+the raw 1 ms samples: deviation both ways over the feed moves (chords between setpoints on feed moves
+to the programmed path, and every point of the programmed feed moves to the tool path; rapids are not
+cut), peak per-axis velocity, acceleration and jerk over the limit. ``TOPP-RA`` is the per-axis
 time-optimal parameterisation of flowmc's own smoothed curve (benchmarks/toppra_reference.py, total
 time including rapids), so ``/topp`` says how close flowmc's time law comes to optimal on its geometry.
 
@@ -73,12 +74,34 @@ def sampled(traj_positions: np.ndarray, period: float, limit: float) -> dict:
     return out
 
 
-def measure(positions: np.ndarray, period: float, path: Path) -> dict:
+def feed_points(path: Path, spacing: float = 0.005) -> np.ndarray:
+    """Points at most ``spacing`` apart along the path's feed moves (rapids are not cut, so not judged)."""
+    pts, seg = path.sample(1e-4)
+    feed = np.array([not s.rapid for s in path.segments])
+    same = (seg[1:] == seg[:-1]) & feed[seg[1:]]
+    a, b = pts[:-1][same], pts[1:][same]
+    n = np.maximum(1, np.ceil(np.linalg.norm(b - a, axis=1) / spacing).astype(int))
+    frac = np.concatenate([np.arange(k) / k for k in n])
+    owner = np.repeat(np.arange(len(a)), n)
+    return np.vstack([a[owner] + frac[:, None] * (b - a)[owner], b[-1:]])
+
+
+def measure(positions: np.ndarray, period: float, path: Path, cutting: np.ndarray) -> dict:
+    """Peaks per axis; deviation both ways over the feed moves: every chord between two setpoints on a feed
+    move to the programmed path, and every point of a feed move to the tool path."""
     programmed = programmed_polyline(path)
     out = sampled(positions, period, 200.0)
-    out["dev_to_path"] = contour_error(positions, programmed)
-    out["dev_from_path"] = coverage_error(positions, programmed)
+    edges = np.flatnonzero(np.diff(np.r_[0, cutting.astype(int), 0]))
+    out["dev_to_path"] = max((contour_error(positions[a:b + 1], programmed) for a, b in zip(edges[::2], edges[1::2])),
+                             default=0.0)
+    out["dev_from_path"] = coverage_error(positions, feed_points(path))
     return out
+
+
+def cutting(traj, path: Path) -> np.ndarray:
+    """Per chord: on a feed move (not a rapid, not a dwell)."""
+    feed = np.array([not (s.rapid or s.kind == "dwell") for s in path.segments])
+    return feed[traj.segment[1:]]
 
 
 def main() -> None:
@@ -104,15 +127,14 @@ def main() -> None:
         row = {"name": name, "segments": len(path), "wall_trap": wall_trap, "wall_scurve": wall_s,
                "trap_feed": flowmc_feed_time(trap.trajectory, path), "trap_total": trap.cycle_time,
                "s_feed": flowmc_feed_time(scurve.trajectory, path), "s_total": scurve.cycle_time,
-               "trap": measure(trap.trajectory.positions, 0.001, path),
-               "s": measure(scurve.trajectory.positions, 0.001, path)}
+               "trap": measure(trap.trajectory.positions, 0.001, path, cutting(trap.trajectory, path)),
+               "s": measure(scurve.trajectory.positions, 0.001, path, cutting(scurve.trajectory, path))}
         if not args.no_toppra:
             row["topp"] = toppra_time(trap, m, FEED, grid_step=0.05 if len(path) > 200 else 0.01)
         if not args.no_linuxcnc:
             run = run_program(path_to_gcode(path, blend_tolerance=TOL), m, timeout=1200.0, name=f"{name}.ngc")
-            first = max(int(np.flatnonzero(np.isin(run.motion_type, (2, 3)))[0]) - 1, 0)
             row["lcnc_feed"] = run.feed_time
-            row["lcnc"] = measure(run.samples[first:], run.servo_period, path)
+            row["lcnc"] = measure(run.samples, run.servo_period, path, np.isin(run.motion_type[1:], (2, 3)))
         rows.append(row)
         print(json.dumps({k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()
                           if not isinstance(v, dict)}), flush=True)

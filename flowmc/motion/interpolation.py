@@ -59,7 +59,7 @@ def _assemble(chunks: list[np.ndarray], period: float, path: Path) -> Trajectory
         seg_idx.append(np.full(len(chunk), i, dtype=int))
         count += len(chunk)
     return Trajectory(np.vstack(pts), period, np.concatenate(seg_idx), signals=path_signals(path, starts),
-                      segment_names=path.segment_names())
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
 
 
 # ---------------------------------------------------------------- time division

@@ -77,5 +77,5 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     cols = list(lim.cols)
     traj = Trajectory(pos[:, cols], machine.period, tags, axes=lim.axes,
                       signals=path_signals(path, segment_start_times(tags, machine.period, len(path))),
-                      segment_names=path.segment_names())
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
     return SmoothPlan(traj, u, sm, law)

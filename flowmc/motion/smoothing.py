@@ -63,6 +63,7 @@ __all__ = ["Smoothed", "smooth_path", "raw_curve"]
 _EPS_LEN = 1e-9  # mm: shorter segments are dropped
 _CURVE_STEP = 1.0  # mm: tabulated curves (ellipse, NURBS) become cubic splines with knots this far apart at most
 _G2_STRETCH = 2.0  # a curvature-continuous corner needs this many times the tangent arc's trim
+_FLAT = 0.002  # a curve whose normal acceleration at full speed is this share of amax counts as straight
 _SHARP = math.radians(30.0)  # corners turning more than this are fitted on their own, with finer knots
 _FIT_ITER = 16
 _FIT_SETTLE = 6  # iterations that may also smooth more where the tolerance is met with room to spare
@@ -634,7 +635,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     else:
         need = alpha > 2e-3 * a_min * period / v_big
     need &= ~stop
-    r_cap = v_big**2 / (0.1 * a_min)
+    r_cap = v_big**2 / (_FLAT * a_min)  # flatter than this costs nothing worth smoothing for
     want_arc, want = _zone_wants(alpha, dkappa, tol_fit, r_cap, g2)
     runs = _find_runs(el, need, want, alpha, stop, g2)
     stop_extra = []
