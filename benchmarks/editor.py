@@ -22,7 +22,6 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests" / "ui")]
 
 from browser_helpers import EditorPage, chromium, expected  # noqa: E402
 from editor_graphs import chain_file, example_file  # noqa: E402
-
 from flowmc.ui import canvas_draw  # noqa: E402
 from flowmc.ui.app import Editor  # noqa: E402
 

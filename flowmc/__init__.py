@@ -18,6 +18,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+__version__ = "0.1.0"  # with CHANGELOG.md's newest release; pyproject.toml reads it from here
+
 __all__ = [
     "load",
     "save",

@@ -13,8 +13,8 @@ from typing import Any
 from flowmc.graph import Graph, Issue, load
 from flowmc.plugins import default_registry
 from flowmc.registry import Registry
-from flowmc.runtime import Runtime as BaseRuntime
 from flowmc.runtime import RunResult
+from flowmc.runtime import Runtime as BaseRuntime
 
 __all__ = ["Runtime", "run", "validate"]
 

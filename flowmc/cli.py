@@ -186,7 +186,8 @@ def cmd_nodes(args: argparse.Namespace) -> int:
             wired = {p["name"] for p in d["param_inputs"]}
             for name, prop in d["params_schema"].get("properties", {}).items():
                 if name not in wired:
-                    print(f"    param {name}: {prop.get('type', 'value')}" + (f" = {json.dumps(prop['default'])}" if "default" in prop else ""))
+                    default = f" = {json.dumps(prop['default'])}" if "default" in prop else ""
+                    print(f"    param {name}: {prop.get('type', 'value')}{default}")
             for port in d["outputs"]:
                 print(_port_line("out", port))
     for where, error in registry.failures.items():
@@ -299,7 +300,10 @@ def _sweep_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from flowmc import __version__
+
     parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
+    parser.add_argument("--version", action="version", version=f"flowmc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     plugins = argparse.ArgumentParser(add_help=False)
     plugins.add_argument("--nodes", action="append", default=[], metavar="DIR",

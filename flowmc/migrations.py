@@ -6,13 +6,13 @@ There is only version 1 so far, so the table is empty; an unknown version is ref
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Final
 
 from flowmc.errors import GraphError
 
 __all__ = ["SCHEMA_VERSION", "MIGRATIONS", "migrate"]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION: Final = 1
 
 MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {}
 
@@ -23,7 +23,8 @@ def migrate(raw: Any, where: str) -> Any:
         raise GraphError(f"$: a graph file holds a JSON object, not {type(raw).__name__}", where=where)
     version = raw.get("schema_version")
     if isinstance(version, bool) or not isinstance(version, int):
-        raise GraphError(f"$.schema_version: missing or not an integer ({version!r}); this flowmc reads {SCHEMA_VERSION}", where=where)
+        raise GraphError(f"$.schema_version: missing or not an integer ({version!r}); this flowmc reads {SCHEMA_VERSION}",
+                         where=where)
     while version != SCHEMA_VERSION:
         step = MIGRATIONS.get(version)
         if step is None:

@@ -21,7 +21,7 @@ import re
 import types
 import typing
 from pathlib import Path
-from typing import Any, ClassVar, Iterable, Iterator, Literal, Protocol
+from typing import Any, ClassVar, Iterable, Literal, Protocol
 
 from pydantic import BaseModel, ConfigDict
 
@@ -75,7 +75,7 @@ class NodeType:
     reads: ClassVar[tuple[str, ...]] = ()  # params naming every file or folder it reads: cached while they are unchanged
 
     @classmethod
-    def ports(cls, params: BaseModel) -> Ports:
+    def ports(cls, params: Any) -> Ports:
         """Data ports for these params. Override only when ports depend on params."""
         return Ports(cls.inputs, cls.outputs)
 
@@ -86,9 +86,12 @@ class NodeType:
 
     @classmethod
     def dynamic_ports(cls) -> bool:
-        return getattr(cls.ports, "__func__", None) is not NodeType.ports.__func__
+        """True when the class (or a base below NodeType) overrides ``ports``."""
+        return any("ports" in vars(c) for c in cls.__mro__ if c is not NodeType and issubclass(c, NodeType))
 
-    def run(self, ctx: Any, params: Any, **inputs: Any) -> dict[str, Any]:
+    def run(self, ctx: Any, params: Any, /, *args: Any, **inputs: Any) -> dict[str, Any]:
+        """Subclasses name their inputs: ``run(self, ctx, params, path, feed=None)``. (``*args`` is never
+        passed; with ``**inputs`` it lets a type checker accept every subclass's own signature.)"""
         raise NotImplementedError
 
 
@@ -184,14 +187,14 @@ def _check_ports(fail: Any, inputs: tuple[In, ...], outputs: tuple[Out, ...]) ->
         if bad or not port.types:
             fail(f"input {port.name!r} has unknown port type {bad or port.type!r}; known: {', '.join(PORT_TYPES)}")
     seen_out: set[str] = set()
-    for port in outputs:
-        if not _port_name_ok(port.name):
-            fail(f"output name {port.name!r} is not a valid identifier")
-        if port.name in seen_out:
-            fail(f"output {port.name!r} declared twice")
-        seen_out.add(port.name)
-        if port.type not in PORT_TYPES:
-            fail(f"output {port.name!r} has unknown port type {port.type!r}; known: {', '.join(PORT_TYPES)}")
+    for out in outputs:
+        if not _port_name_ok(out.name):
+            fail(f"output name {out.name!r} is not a valid identifier")
+        if out.name in seen_out:
+            fail(f"output {out.name!r} declared twice")
+        seen_out.add(out.name)
+        if out.type not in PORT_TYPES:
+            fail(f"output {out.name!r} has unknown port type {out.type!r}; known: {', '.join(PORT_TYPES)}")
 
 
 def check_ports(owner: str, ports: Ports) -> None:
@@ -230,7 +233,7 @@ _generations = itertools.count(1)  # one counter for all registries: a generatio
 class LibrarySource(Protocol):
     """Where ``lib.<stem>`` types come from: graph files with an interface, used as nodes."""
 
-    def type(self, type_id: str, graph_dir: Path | None, registry: Registry) -> type[NodeType] | None: ...
+    def lookup(self, type_id: str, graph_dir: Path | None, registry: Registry) -> type[NodeType] | None: ...
 
     def types(self, graph_dir: Path | None, registry: Registry) -> dict[str, type[NodeType]]: ...
 
@@ -312,7 +315,7 @@ class Registry:
         if cls is not None:
             return cls
         if type_id.startswith("lib.") and self.library is not None:
-            found = self.library.type(type_id, Path(graph_dir) if graph_dir is not None else None, self)
+            found = self.library.lookup(type_id, Path(graph_dir) if graph_dir is not None else None, self)
             if found is not None:
                 return found
         raise GraphError(f"unknown node type {type_id!r}", where=None)

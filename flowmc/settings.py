@@ -21,7 +21,17 @@ class UsageError(FlowmcError):
 
 
 def parse_value(port_type: str | None, text: str, what: str) -> Any:
-    """Turn command-line text into a value for a port type (None: any JSON, else the text)."""
+    """Turn command-line text into a value for a port type (None: any JSON, else the text).
+
+    >>> parse_value("Number", "3", "--input n"), parse_value("Number", "2.5", "--input n")
+    (3, 2.5)
+    >>> parse_value("Bool", "on", "--input b"), parse_value(None, "[1, 2]", "--input v")
+    (True, [1, 2])
+    >>> parse_value("Path", "x", "--input p")
+    Traceback (most recent call last):
+    ...
+    flowmc.settings.UsageError: --input p: a Path cannot be given on the command line
+    """
     if port_type == "Text":
         return text
     if port_type == "Number":

@@ -32,9 +32,11 @@ class MotionCard(ABC):
 
     def connect(self) -> None:
         """Open the connection (a no-op where there is none)."""
+        return None
 
     def close(self) -> None:
         """Release the connection; safe to call twice."""
+        return None
 
     def __enter__(self) -> "MotionCard":  # open_device has connected it already
         return self

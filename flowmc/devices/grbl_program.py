@@ -13,7 +13,8 @@ the tool (pen) state -> a pair of commands when a pen is configured (``pen=PEN_C
 the spindle PWM output, M3 S<power> down, M5 up). Without a pen (the default, as on a mill, where a
 rapid does not lift anything) tool events are not sent. A program with tool events starts with the tool up: the up command
 follows the preamble, before the move to the start. With commands that use the spindle, a program
-that also sets the spindle is refused (one would overwrite the other). GRBL has no other outputs that flowmc can drive; other signals
+that also sets the spindle is refused (one would overwrite the other). GRBL has no other outputs that flowmc can drive;
+other signals
 are refused, naming the signal. A step stream's signal times are in ticks when it is untimed (the
 ``Steps`` convention).
 """

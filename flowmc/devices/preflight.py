@@ -27,13 +27,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flowmc.devices.ranges import CARD_6050, CardRanges
 from flowmc.errors import DeviceError, LimitError
 from flowmc.motion.limits import AxisLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.table import Table
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
-from flowmc.devices.ranges import CARD_6050, CardRanges
 
 __all__ = ["preflight", "PreflightReport", "program_signals", "axis_columns"]
 

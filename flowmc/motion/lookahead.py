@@ -29,9 +29,9 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PlanningError
+from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
-from flowmc.motion.limits import PathLimits
 from flowmc.motion.planner import SmoothPlan, plan_smooth
 from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid

@@ -24,7 +24,7 @@ import numpy as np
 from flowmc.errors import PlanningError
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
-from flowmc.motion.path import Arc, Dwell, Line, Path, PLANES, describe_segment
+from flowmc.motion.path import PLANES, Arc, Dwell, Line, Path, describe_segment
 
 __all__ = ["LINE", "ARC", "CURVE", "DWELL", "REVERSAL", "Pieces", "build_pieces", "check_axes", "corner_angle"]
 

@@ -65,11 +65,11 @@ def _machine_for(machine: Machine | None, motion=None) -> Machine:
 
 def _open(params: _DeviceParams, machine: Machine, after: DeviceLog | None):
     """Open the device; a card carries on from ``after``'s end state when that came from one of its kind."""
-    pen = isinstance(params, CardOutputParams)
+    card = params if isinstance(params, CardOutputParams) else None  # only Card output drives a pen
     options = DeviceOptions(
         sim=SimOptions(closed_loop=params.closed_loop, estop_input=params.estop_input or None, analog=params.analog,
-                       pen_output=(params.pen_output or None) if pen else None),
-        grbl=GrblOptions(params.grbl_pen_down, params.grbl_pen_up) if pen else GrblOptions(),
+                       pen_output=(card.pen_output or None) if card else None),
+        grbl=GrblOptions(card.grbl_pen_down, card.grbl_pen_up) if card else GrblOptions(),
         resume=after.state if after is not None else None)
     return open_device(params.device, machine, options)
 
@@ -244,9 +244,9 @@ class _SignalParams(_Params):
                                     "error messages count them)")] = "time"
 
 
-def _times(at: str, points: list[float], motion) -> np.ndarray:
+def _times(at: str, given: list[float], motion) -> np.ndarray:
     """Times of the change points: as given, or the first setpoint of each segment (numbered from 1)."""
-    points = np.asarray(points, dtype=float)
+    points = np.asarray(given, dtype=float)
     if at == "time":
         return points
     if not isinstance(motion, (Trajectory, Steps)):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -113,8 +113,8 @@ class GcodeOut(NodeType):
     outputs = (Out("text", "Text", doc="The G-code program"),)
 
     def run(self, ctx, params: GcodeOutParams, path: Path):
-        options = dict(decimals=params.decimals, blend_tolerance=params.blend_tolerance,
-                       chord_tolerance=params.chord_tolerance)
+        options: dict[str, Any] = dict(decimals=params.decimals, blend_tolerance=params.blend_tolerance,
+                                       chord_tolerance=params.chord_tolerance)
         if not params.file:
             return {"text": path_to_gcode(path, **options)}
         target = ctx.resolve(params.file)

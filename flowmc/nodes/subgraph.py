@@ -38,8 +38,8 @@ def interface_ports(graph: Graph, plan: Plan | None = None) -> Ports:
     inputs = []
     for item in graph.interface.inputs:
         default: Any = item.default
-        if default is None:
-            targets = plan.iface_inputs.get(item.name, (None, []))[1] if plan is not None else []
+        if default is None and plan is not None:
+            targets = plan.iface_inputs.get(item.name, (None, []))[1]
             needed = any(plan.nodes[n].inputs[p].required and not plan.nodes[n].inputs[p].param for n, p in targets)
             default = REQUIRED if needed else None
         inputs.append(In(item.name, item.type, doc=item.description, default=default))
@@ -73,7 +73,8 @@ def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph,
     plan = plan_graph(graph, Site(path.parent, site.root, site.chain + (path,)))
     if plan.issues:
         issues = [
-            Issue(i.code if i.code == "subgraph-recursion" else "subgraph", loc, f"node {node_id!r}: sub-graph {shown}: {i.message}")
+            Issue(i.code if i.code == "subgraph-recursion" else "subgraph", loc,
+                  f"node {node_id!r}: sub-graph {shown}: {i.message}")
             for i in plan.issues
         ]
         raise GraphError(issues[0].message, issues=issues)
@@ -147,7 +148,7 @@ _SCALAR_TYPES = {"Number": float, "Bool": bool, "Text": str}
 
 def _split_scalars(ports: Ports, stem: str) -> tuple[type[BaseModel], Ports]:
     """Scalar inputs become an optional-field params model; the rest stay data ports."""
-    fields = {
+    fields: dict[str, Any] = {
         p.name: (_SCALAR_TYPES[p.type] | None, Field(None if p.default is REQUIRED else p.default, description=p.doc))
         for p in ports.inputs if isinstance(p.type, str) and p.type in _SCALAR_TYPES
     }
@@ -213,7 +214,7 @@ class GraphLibrary:
             self._cache[path] = (registry.generation, stat, cls)
         return cls
 
-    def type(self, type_id: str, graph_dir: Path | None, registry: Registry) -> type[LibraryGraph] | None:
+    def lookup(self, type_id: str, graph_dir: Path | None, registry: Registry) -> type[LibraryGraph] | None:
         """The type for ``lib.<stem>``: ``<graph_dir>/lib`` first, then the library folders."""
         stem = type_id[len("lib."):]
         if not stem or "/" in stem or "\\" in stem or stem.startswith("."):
@@ -226,8 +227,8 @@ class GraphLibrary:
                     return None
         return None
 
-    def types(self, graph_dir: Path | None, registry: Registry) -> dict[str, type[LibraryGraph]]:
-        found: dict[str, type[LibraryGraph]] = {}
+    def types(self, graph_dir: Path | None, registry: Registry) -> dict[str, type[NodeType]]:
+        found: dict[str, type[NodeType]] = {}
         for lib_dir in reversed(self._dirs(graph_dir)):  # the local lib/ overrides the package one
             for path in sorted(lib_dir.glob(f"*{SUFFIX}")):
                 if not path.resolve().is_relative_to(lib_dir):

@@ -49,4 +49,4 @@ class GraphBinder(Protocol):
 
 def binder_of(cls: type) -> type[GraphBinder] | None:
     """``cls`` when it implements the protocol, else None."""
-    return cls if callable(getattr(cls, "bind_graph", None)) else None  # type: ignore[return-value]
+    return cls if callable(getattr(cls, "bind_graph", None)) else None

@@ -22,7 +22,7 @@ from pydantic import BaseModel, ValidationError
 
 from flowmc.errors import GraphError
 from flowmc.graph import Graph, Issue, Node, split_ref
-from flowmc.ports import In, Out, Ports
+from flowmc.ports import SCALAR_PORT_TYPES, In, Out, Ports
 from flowmc.registry import NodeType, Registry, check_ports
 from flowmc.runtime.binding import BindContext, binder_of
 from flowmc.runtime.cache import static_key
@@ -135,7 +135,7 @@ def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph
             return None
         ports, pure, extra, binding = bound.ports, bound.pure, bound.key, bound.plan
         deps.update(bound.deps)
-    elif cls.dynamic_ports():
+    elif cls.dynamic_ports() and params is not None:
         try:
             ports = cls.ports(params)
             check_ports(f"node {node.id!r} ({node.type})", ports)
@@ -197,7 +197,8 @@ def _check_wires(graph: Graph, nodes: dict[str, Node], bound: dict[str, BoundNod
         inp = dst.inputs.get(d_port) if dst else None
         if src is not None and out is None:
             issues.append(Issue("unknown-port", ("wires", i, "from"),
-                                f"{text}: node {s_node!r} has no output {s_port!r} (outputs: {', '.join(src.outputs) or 'none'})"))
+                                f"{text}: node {s_node!r} has no output {s_port!r} "
+                                f"(outputs: {', '.join(src.outputs) or 'none'})"))
         if dst is not None and inp is None:
             issues.append(Issue("unknown-port", ("wires", i, "to"),
                                 f"{text}: node {d_node!r} has no input {d_port!r} (inputs: {', '.join(dst.inputs) or 'none'})"))
@@ -216,7 +217,8 @@ def _check_wires(graph: Graph, nodes: dict[str, Node], bound: dict[str, BoundNod
                                 f"{text}: node {s_node!r} output {s_port!r} is {out.type} but node {d_node!r} "
                                 f"input {d_port!r} takes {' or '.join(inp.types)}"))
             continue
-        dst.sources[d_port] = (s_node, s_port)
+        if dst is not None:
+            dst.sources[d_port] = (s_node, s_port)
     return edges, fed_by
 
 
@@ -230,9 +232,10 @@ def _check_interface(graph: Graph, nodes: dict[str, Node], bound: dict[str, Boun
         if item.name in iface_in:
             issues.append(Issue("interface-duplicate", loc, f"interface input {item.name!r} is declared twice"))
             continue
-        if item.default is not None and (item.type not in ("Number", "Bool", "Text") or not value_matches(item.type, item.default)):
+        if item.default is not None and (item.type not in SCALAR_PORT_TYPES or not value_matches(item.type, item.default)):
             issues.append(Issue("interface-type", (*loc, "default"),
-                                f"interface input {item.name!r}: default {item.default!r} is not a {item.type} (defaults are Number, Bool or Text)"))
+                                f"interface input {item.name!r}: default {item.default!r} is not a {item.type} "
+                                "(defaults are Number, Bool or Text)"))
         targets = []
         for k, ref in enumerate(item.to):
             node_id, port = split_ref(ref)
@@ -242,29 +245,31 @@ def _check_interface(graph: Graph, nodes: dict[str, Node], bound: dict[str, Boun
                 continue
             node = bound[node_id]
             if (node_id, port) in fed_by or port in node.fed:
-                issues.append(Issue("input-wired-twice", (*loc, "to", k), f"{where}: node {node_id!r} input {port!r} is already fed"))
+                issues.append(Issue("input-wired-twice", (*loc, "to", k),
+                                    f"{where}: node {node_id!r} input {port!r} is already fed"))
             elif not inp.accepts(item.type):
                 issues.append(Issue("interface-type", (*loc, "to", k),
-                                    f"{where}: interface type {item.type} but node {node_id!r} input {port!r} takes {' or '.join(inp.types)}"))
+                                    f"{where}: interface type {item.type} but node {node_id!r} input {port!r} "
+                                    f"takes {' or '.join(inp.types)}"))
             else:
                 node.fed[port] = item.name
                 targets.append((node_id, port))
         iface_in[item.name] = (item, targets)
-    for item in graph.interface.outputs:
-        loc = ("interface", "outputs", item.name)
-        if item.name in iface_out:
-            issues.append(Issue("interface-duplicate", loc, f"interface output {item.name!r} is declared twice"))
+    for out_item in graph.interface.outputs:
+        loc = ("interface", "outputs", out_item.name)
+        if out_item.name in iface_out:
+            issues.append(Issue("interface-duplicate", loc, f"interface output {out_item.name!r} is declared twice"))
             continue
-        node_id, port = split_ref(item.from_)
-        where = f"interface output {item.name!r} <- {item.from_}"
+        node_id, port = split_ref(out_item.from_)
+        where = f"interface output {out_item.name!r} <- {out_item.from_}"
         out = _interface_port(node_id, port, "output", nodes, bound, issues, (*loc, "from"), where)
         if out is None:
             continue
-        if out.type != item.type:
+        if out.type != out_item.type:
             issues.append(Issue("interface-type", (*loc, "from"),
-                                f"{where}: interface type {item.type} but node {node_id!r} output {port!r} is {out.type}"))
+                                f"{where}: interface type {out_item.type} but node {node_id!r} output {port!r} is {out.type}"))
             continue
-        iface_out[item.name] = (item, (node_id, port))
+        iface_out[out_item.name] = (out_item, (node_id, port))
     return iface_in, iface_out
 
 

@@ -103,8 +103,8 @@ def _finite(value: Any) -> bool:
 def _against(x: str, outputs: tuple[str, ...], shown: list[dict[str, Any]], params: list[str]) -> Any:
     """One figure: each output (a row of subplots) against the setting ``x``, coloured by another setting.
     Failed variants that still produced the output are drawn as crosses."""
-    from plotly.subplots import make_subplots
     import plotly.graph_objects as go
+    from plotly.subplots import make_subplots
 
     others = [p for p in params if p != x and 1 < len({str(r.get(p)) for r in shown}) <= _MAX_COLOR_GROUPS]
     by = others[0] if others else None

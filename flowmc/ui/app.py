@@ -253,7 +253,8 @@ class Editor:
             if request.source != "run":
                 self.status_line.content = md("{}: {}", request.source, "done" if result.ok else "a node failed")
             elif result.ok:
-                self.notify("info", f"run done in {request.seconds:.2f} s: {len(result.executed)} ran, {len(result.cached)} cached")
+                self.notify("info", f"run done in {request.seconds:.2f} s: {len(result.executed)} ran, "
+                                    f"{len(result.cached)} cached")
             else:
                 first = next(iter(errors.values()), "a node failed")
                 self.notify("error", f"run failed: {first}" + (f" (+{len(errors) - 1} more)" if len(errors) > 1 else ""))

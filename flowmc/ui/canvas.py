@@ -17,8 +17,8 @@ import viser
 
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
-from flowmc.ui import canvas_draw as draw
 from flowmc.ui import camera, layout
+from flowmc.ui import canvas_draw as draw
 from flowmc.ui.ports import node_ports
 from flowmc.ui.state import EditorState
 
@@ -49,7 +49,8 @@ class Canvas:
         scene.configure_default_lights(False)
         scene.configure_environment_map(None)
         scene.add_light_ambient("/light", intensity=draw.AMBIENT)
-        self._pending_marker = scene.add_box("/canvas/pending", color=tuple(draw.mesh_rgb(draw.FRAME_SELECTED)), dimensions=(0.21, 0.21, 0.01),
+        self._pending_marker = scene.add_box("/canvas/pending", color=tuple(draw.mesh_rgb(draw.FRAME_SELECTED)),
+                                             dimensions=(0.21, 0.21, 0.01),
                                              visible=False, cast_shadow=False, receive_shadow=False)
         scene.on_click()(self._on_scene_click)
         scene.on_click(modifier="shift")(self._on_scene_click)  # shift-click adds to the selection
@@ -85,7 +86,8 @@ class Canvas:
         """Redraw from the state: batches are resent whole, labels only where their text or place changed."""
         with self.lock:
             state, plan = self.state, self.state.plan()
-            self.boxes = [layout.node_box(n.id, n.pos, node_ports(n, state.runtime.registry, state.base_dir, plan)) for n in state.graph.nodes]
+            self.boxes = [layout.node_box(n.id, n.pos, node_ports(n, state.runtime.registry, state.base_dir, plan))
+                          for n in state.graph.nodes]
             by_id = {b.node_id: b for b in self.boxes}
             self.curves, types = {}, {}
             for w in state.graph.wires:

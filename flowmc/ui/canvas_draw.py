@@ -14,7 +14,8 @@ import numpy as np
 from flowmc.ui.layout import SCALE, TITLE_H, NodeBox, PortSpot
 from flowmc.ui.ports import port_color
 
-__all__ = ["AMBIENT", "mesh_rgb", "STATUS_COLORS", "QUAD_VERTICES", "QUAD_FACES", "Quads", "node_quads", "port_quads", "wire_segments",
+__all__ = ["AMBIENT", "mesh_rgb", "STATUS_COLORS", "QUAD_VERTICES", "QUAD_FACES", "Quads", "node_quads", "port_quads",
+           "wire_segments",
            "port_label", "status_text", "shorten", "issue_node", "node_problems"]
 
 STATUS_COLORS: dict[str | None, tuple[int, int, int]] = {
@@ -100,7 +101,8 @@ def port_quads(boxes: list[NodeBox]) -> Quads:
     return _quads(rects, Z_PORTS, colors)
 
 
-def wire_segments(curves: dict[Any, np.ndarray], types: dict[Any, str], selected: set, broken: set) -> tuple[np.ndarray, np.ndarray]:
+def wire_segments(curves: dict[Any, np.ndarray], types: dict[Any, str], selected: set,
+                  broken: set) -> tuple[np.ndarray, np.ndarray]:
     """All wires as (N, 2, 3) segments and (N, 2, 3) colours: by source type, selected or broken."""
     if not curves:
         return np.zeros((0, 2, 3), np.float32), np.zeros((0, 2, 3), np.uint8)

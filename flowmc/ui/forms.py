@@ -130,7 +130,8 @@ def blank_value(spec: FieldSpec) -> Any:
         value = min(value, spec.maximum) if spec.maximum is not None else value
         return int(value) if spec.kind == "integer" else float(value)
     return {"checkbox": False, "dropdown": spec.options[0] if spec.options else "", "text": "",
-            "vector2": [0.0, 0.0], "vector3": [0.0, 0.0, 0.0], "optional": None, "list": [], "rows": [], "points": []}.get(spec.kind)
+            "vector2": [0.0, 0.0], "vector3": [0.0, 0.0, 0.0], "optional": None, "list": [], "rows": [],
+            "points": []}.get(spec.kind)
 
 
 def new_row(spec: FieldSpec, variant: str, old: dict | None = None) -> dict:

@@ -53,7 +53,7 @@ def parse_text(spec: FieldSpec, text: str) -> Any:
         return parts if spec.inner.kind == "string" else [_number(p, spec.inner.kind == "integer") for p in parts]
     if spec.kind == "points":
         points = []
-        for k, line in enumerate(l for l in text.splitlines() if l.strip()):
+        for k, line in enumerate(ln for ln in text.splitlines() if ln.strip()):
             try:
                 points.append([_number(p, False) for p in line.replace(";", ",").split(",")])
             except ParseError as exc:
@@ -164,10 +164,13 @@ class Inspector:
             options = spec.options if value in spec.options else (value, *spec.options)
             handle = gui.add_dropdown(label, options, initial_value=value, hint=hint, disabled=disabled)
         elif kind in ("vector2", "vector3") and len(value) == int(kind[-1]):
-            handle = (gui.add_vector2 if kind == "vector2" else gui.add_vector3)(label, tuple(value), hint=hint, disabled=disabled)
+            add_vector = gui.add_vector2 if kind == "vector2" else gui.add_vector3
+            handle = add_vector(label, tuple(value), hint=hint, disabled=disabled)
         else:
-            text_spec = spec if kind == spec.kind and kind not in ("vector2", "vector3") else FieldSpec(spec.name, "json", spec.label)
-            multiline = text_spec.kind in ("points", "json") or (text_spec.kind == "optional" and text_spec.inner.kind == "points")
+            plain_kind = kind == spec.kind and kind not in ("vector2", "vector3")
+            text_spec = spec if plain_kind else FieldSpec(spec.name, "json", spec.label)
+            multiline = text_spec.kind in ("points", "json") or (
+                text_spec.kind == "optional" and text_spec.inner.kind == "points")
             handle = gui.add_text(label, _text_of(text_spec, value), multiline=multiline, hint=hint, disabled=disabled)
             handle.on_update(lambda _e, s=text_spec, h=handle: self._text_changed(s, path, h.value))
             self._register(path, handle)
@@ -184,7 +187,8 @@ class Inspector:
         self.errors[path] = self.gui.add_markdown("", visible=False)
         for k, row in enumerate(rows):
             variant = str(row.get(spec.tag, "")) if isinstance(row, dict) and spec.tag else ""
-            with self.gui.add_folder(plain(f"{spec.name} {k + 1}" + (f" · {variant}" if variant else ""), 80), expand_by_default=len(rows) <= 8):
+            title = plain(f"{spec.name} {k + 1}" + (f" · {variant}" if variant else ""), 80)
+            with self.gui.add_folder(title, expand_by_default=len(rows) <= 8):
                 if not isinstance(row, dict) or variant not in spec.variants:
                     self._add_field(FieldSpec(str(k), "json", "row"), (*path, k), row)
                     continue

@@ -15,7 +15,8 @@ import numpy as np
 
 from flowmc.ui.ports import NodePorts, PortInfo
 
-__all__ = ["SCALE", "NODE_W", "TITLE_H", "ROW_H", "PortSpot", "NodeBox", "Hit", "to_world", "to_canvas", "node_box", "wire_points",
+__all__ = ["SCALE", "NODE_W", "TITLE_H", "ROW_H", "PortSpot", "NodeBox", "Hit", "to_world", "to_canvas", "node_box",
+           "wire_points",
            "bounds", "ray_to_plane", "hit"]
 
 SCALE = 0.01  # world units per canvas pixel

@@ -47,7 +47,8 @@ class PalettePanel:
             self.buttons = {}
             with self.folder:
                 for item in found[:MAX_RESULTS]:
-                    button = gui.add_button(plain(f"{item.title}  ·  {item.category}", 120), hint=plain(f"{item.key}: {item.description}"))
+                    button = gui.add_button(plain(f"{item.title}  ·  {item.category}", 120),
+                                            hint=plain(f"{item.key}: {item.description}"))
                     button.on_click(lambda _e, item=item: self.add(item))
                     self.buttons[item.key] = button
 

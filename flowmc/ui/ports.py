@@ -12,9 +12,9 @@ import contextlib
 from dataclasses import dataclass
 from typing import Any
 
-from flowmc.ports import In, Out, Ports
 from flowmc.errors import GraphError
 from flowmc.graph import Node
+from flowmc.ports import In, Out, Ports
 
 __all__ = ["PORT_COLORS", "PortInfo", "NodePorts", "node_ports", "port_color"]
 

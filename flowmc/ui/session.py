@@ -20,9 +20,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from flowmc.api import Runtime
 from flowmc.errors import FlowmcError
 from flowmc.graph import Graph, Issue
-from flowmc.api import Runtime
 from flowmc.runtime import Event
 from flowmc.ui.state import EditorState
 

@@ -12,9 +12,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
+from flowmc.api import Runtime
 from flowmc.errors import GraphError
 from flowmc.graph import Graph, Issue, Node, Wire, dumps, load, loads, save, split_ref
-from flowmc.api import Runtime
 from flowmc.ui import extract, wiring
 from flowmc.ui.extract import fresh_id
 from flowmc.ui.history import History
@@ -176,7 +176,8 @@ class EditorState:
     def add_node(self, type_id: str, pos: tuple[float, float] = (0.0, 0.0), params: dict[str, Any] | None = None) -> str:
         """Add a node with a fresh id (from the type's name, or a sub-graph's file name)."""
         params = dict(params or {})
-        stem = Path(str(params["file"])).name.split(".")[0] if type_id == "subgraph" and params.get("file") else type_id.rsplit(".", 1)[-1]
+        from_file = type_id == "subgraph" and params.get("file")
+        stem = Path(str(params["file"])).name.split(".")[0] if from_file else type_id.rsplit(".", 1)[-1]
         node_id = fresh_id(stem, {n.id for n in self.graph.nodes})
         self.record()
         self.graph.nodes.append(Node(id=node_id, type=type_id, params=params, pos=(float(pos[0]), float(pos[1]))))

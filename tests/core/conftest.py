@@ -1,8 +1,8 @@
 """The core tests' registry: the default one plus the test-only node types, fresh per test."""
 
 import pytest
-from core_helpers import TEST_TYPES
 
+from core_helpers import TEST_TYPES
 from flowmc.plugins import default_registry
 
 

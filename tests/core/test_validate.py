@@ -67,7 +67,8 @@ def test_every_problem_is_reported_once_naming_its_node(registry):
 
 def test_messages_name_the_ports(registry):
     issues = {i.code: i for i in flowmc.validate(_everything_wrong(), registry=registry)}
-    assert "node 'num' output 'value' is Number but node 'k2' input 'path' takes Path or Trajectory" in issues["broken-wire"].message
+    assert ("node 'num' output 'value' is Number but node 'k2' input 'path' takes Path or Trajectory"
+            in issues["broken-wire"].message)
     assert "node 'a3' has no input 'zzz'" in issues["unknown-port"].message
     assert issues["unknown-port"].location == ("wires", 3, "to")
     assert "node 'a4' input 'a' is already fed by wire num.value -> a4.a" in issues["input-wired-twice"].message

@@ -1,10 +1,5 @@
-"""Programs and fixtures for device tests: the thesis pattern as a trajectory, straight moves, a machine
-at T = 1 ms and a GRBL protocol simulator per test.
-
-The fixtures live here, not in a conftest.py: other test folders import names from their own
-``conftest`` module, which a second conftest.py in the tree would shadow. Test modules import
-the fixtures they use from here.
-"""
+"""Programs for device tests: the thesis pattern as a trajectory and straight moves (the fixtures are
+in conftest.py)."""
 
 from __future__ import annotations
 
@@ -12,10 +7,7 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pytest
 
-from flowmc.devices.grbl_sim import GrblSimulator
-from flowmc.motion.machine import Machine
 from flowmc.motion.profiles import plan_trapezoid, sample_profile
 from flowmc.motion.segment_table import path_from_rows
 from flowmc.motion.trajectory import Trajectory
@@ -45,24 +37,3 @@ def line_trajectory(start, end, period: float = 0.001, feed: float = 50.0, amax:
     length = float(np.linalg.norm(end - start))
     s = sample_profile(plan_trapezoid(length, 0.0, 0.0, feed, amax), period)
     return Trajectory(start + np.outer(s / length, end - start), period, axes=axes)
-
-
-@pytest.fixture
-def machine() -> Machine:
-    return Machine(period=0.001)
-
-
-@pytest.fixture
-def grbl_sim():
-    """Start a GRBL protocol simulator on a pty; ``grbl_sim(**options)`` returns it, stopped after the test."""
-    started = []
-
-    def start(**options) -> GrblSimulator:
-        sim = GrblSimulator(idle_timeout=20.0, lifetime=120.0, **options)
-        sim.start()
-        started.append(sim)
-        return sim
-
-    yield start
-    for sim in started:
-        sim.stop()

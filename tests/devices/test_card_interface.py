@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 
+from device_programs import line_trajectory
 from flowmc.devices import backends
 from flowmc.devices.backends import DeviceOptions, SimOptions, known_devices, open_device, register_backend
 from flowmc.devices.card import MotionCard
@@ -17,8 +18,6 @@ from flowmc.devices.log import Change, DeviceLog, Event
 from flowmc.devices.ranges import CARD_6050
 from flowmc.devices.sim import SimCard
 from flowmc.errors import DeviceError
-
-from device_programs import line_trajectory, machine  # noqa: F401 (fixtures: machine)
 
 
 def test_sim_is_the_default_and_unknown_specs_list_the_known_ones(machine):

@@ -7,12 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from device_programs import thesis_trajectory
 from flowmc.devices.sim import LoopSettings, SimCard
 from flowmc.devices.sim.pid import PositionLoop
 from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
-
-from device_programs import machine, thesis_trajectory  # noqa: F401 (fixtures: machine)
 
 #: Stated bound on the following error for the thesis pattern, each segment a trapezoid from rest to
 #: rest at a = 200 mm/s^2, with the default loop (kp 150/s, ki 1000/s^2, kd 0.05, velocity feed-forward 1,

@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 import flowmc
+from device_programs import PATTERN
 from flowmc.devices.log import DeviceLog
 from flowmc.motion.table import Table
-
-from device_programs import PATTERN
 
 ROWS = json.loads(PATTERN.read_text())["segments"]
 

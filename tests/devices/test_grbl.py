@@ -11,13 +11,12 @@ import time
 import numpy as np
 import pytest
 
+from device_programs import thesis_trajectory
 from flowmc.devices.backends import open_device
 from flowmc.devices.grbl import GrblStreamer, parse_status
 from flowmc.devices.grbl_program import ProgramLine, decimate, motion_gcode, text_gcode
 from flowmc.errors import DeviceError
 from flowmc.motion.trajectory import Signal
-
-from device_programs import grbl_sim, machine, thesis_trajectory  # noqa: F401 (fixtures: machine, grbl_sim)
 
 
 def _card(sim, machine):

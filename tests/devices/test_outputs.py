@@ -5,13 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from device_programs import line_trajectory
 from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CARD_6050, da_output, pwm_output
 from flowmc.devices.sim import SimCard
 from flowmc.errors import DeviceError, LimitError
 from flowmc.motion.trajectory import Signal
-
-from device_programs import line_trajectory, machine  # noqa: F401 (fixtures: machine)
 
 
 @pytest.mark.parametrize("freq", [17.9, 10.0, 150_000.5, 200_000.0])

@@ -23,8 +23,6 @@ from flowmc.motion.path import Line, Path
 from flowmc.motion.path_steps import path_to_steps
 from flowmc.motion.trajectory import Signal, Steps
 
-from device_programs import grbl_sim  # noqa: F401 (fixture)
-
 STEP = 0.01
 PLOTTER = Machine(axes=(Axis(name="X", step_mm=STEP, vmax=50.0, amax=500.0, max_step_rate=20000.0),
                         Axis(name="Y", step_mm=STEP, vmax=50.0, amax=500.0, max_step_rate=20000.0)), period=0.001)
@@ -61,7 +59,7 @@ def test_timed_steps_switch_the_pen_output_at_exactly_the_event_ticks():
     expected = [(round(rows[i] * PLOTTER.period, 9), v) for i, v in pen_changes(path)]
     assert timeline(log.changes_of("dout", 1)) == expected  # the plotter's pen on output 1
     assert timeline(log.changes_of("tool")) == expected  # and the log names it as the tool
-    for i, v in pen_changes(path):
+    for i, _down in pen_changes(path):
         row = int(rows[i])  # log row k is card period k: the table stands on the segment's start
         np.testing.assert_allclose(log.position[row], path.segments[i].start[:2], atol=1e-9)
     assert log.state["tool_down"] is True and log.state["outputs"][0] is True  # ends on a stroke

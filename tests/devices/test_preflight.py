@@ -5,14 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from device_programs import line_trajectory, thesis_trajectory
 from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CARD_6050
 from flowmc.devices.sim import SimCard
 from flowmc.errors import DeviceError, LimitError
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
-
-from device_programs import line_trajectory, machine, thesis_trajectory  # noqa: F401 (fixtures: machine)
 
 
 def _pattern_over_soft_limit():

@@ -6,13 +6,10 @@ import numpy as np
 import pytest
 
 import flowmc
+from device_programs import line_trajectory
 from flowmc.devices.backends import open_device
 from flowmc.devices.sim import SimCard
 from flowmc.errors import DeviceError
-
-from device_programs import grbl_sim, line_trajectory, machine  # noqa: F401 (fixtures)
-
-
 
 # ---------------------------------------------------------------- reset
 

@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from device_programs import line_trajectory, thesis_trajectory
 from flowmc.devices.sim import AxisSwitches, HomingSettings, SimCard
 from flowmc.devices.sim.world import switch_inputs
 from flowmc.errors import DeviceError
-
-from device_programs import line_trajectory, machine, thesis_trajectory  # noqa: F401 (fixtures: machine)
 
 STEP = 0.0025
 

@@ -1,10 +1,10 @@
 """One LinuxCNC run per reference program for the whole test session (each takes 5-15 s of machine time)."""
 
 import pytest
-from linuxcnc_programs import MEASURED, TOL, machine, reference_path, thesis_path
 
 from flowmc.devices.linuxcnc.backend import run_program
 from flowmc.motion.gcode_write import path_to_gcode
+from linuxcnc_programs import MEASURED, TOL, machine, reference_path, thesis_path
 
 
 @pytest.fixture(scope="session")

@@ -4,8 +4,11 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import flowmc
+
+pytestmark = pytest.mark.linuxcnc
 
 REFERENCE = Path(__file__).resolve().parents[1] / "data" / "reference"
 

@@ -13,12 +13,13 @@ from pathlib import Path as FsPath
 import numpy as np
 import pytest
 
-from gcode_compare import assert_same_moves
-
 from flowmc.devices.linuxcnc.rs274 import MACHINE_UNITS_MM, run_rs274
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode import GcodeOptions, ToolTable, interpret, read_var_file
 from flowmc.motion.path import Dwell
+from gcode_compare import assert_same_moves
+
+pytestmark = pytest.mark.linuxcnc
 
 DATA = FsPath(__file__).parents[1] / "data" / "gcode"
 TOOLS = DATA / "tools.tbl"

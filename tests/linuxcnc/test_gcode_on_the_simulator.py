@@ -7,10 +7,13 @@ flowmc follows the machine (docs/gcode.md lists skeleton.ngc for this).
 """
 
 import numpy as np
+import pytest
 
 from flowmc.devices.linuxcnc.backend import run_program
 from flowmc.devices.linuxcnc.rs274 import run_rs274
 from flowmc.motion.gcode import parse_gcode
+
+pytestmark = pytest.mark.linuxcnc
 
 PROGRAM = "G21 G90\nG0 X0 Y0 Z-10\nT1 M6 G43.1 Z5\nG0 X10\nG0 Y10\nM2\n"
 

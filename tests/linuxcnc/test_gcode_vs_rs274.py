@@ -21,6 +21,8 @@ from flowmc.motion.gcode import parse_gcode
 from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.path import Arc, Dwell, Path
 
+pytestmark = pytest.mark.linuxcnc
+
 MM_TOL = 1e-4
 INCH_PRINT_TOL = 0.5e-4 * 25.4 + 1e-9
 

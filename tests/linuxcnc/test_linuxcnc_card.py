@@ -2,13 +2,15 @@
 
 import numpy as np
 import pytest
-from linuxcnc_programs import live_linuxcnc_processes, machine
 
 from flowmc.devices.backends import open_device
 from flowmc.devices.linuxcnc.card import trajectory_gcode
 from flowmc.errors import DeviceError
 from flowmc.motion.path import Line, Path
 from flowmc.motion.trajectory import Signal, Trajectory
+from linuxcnc_programs import live_linuxcnc_processes, machine
+
+pytestmark = pytest.mark.linuxcnc
 
 
 def test_setpoints_become_a_g1_polyline_with_chord_feeds_dwells_and_synced_outputs():

@@ -4,12 +4,14 @@ import json
 
 import numpy as np
 import pytest
-from linuxcnc_programs import MEASURED, TOL, machine
 
 from flowmc.cli import main as flowmc_main
 from flowmc.devices.linuxcnc.compare import compare_trajectories, flowmc_feed_time
 from flowmc.motion.lookahead import plan_lookahead
 from flowmc.motion.machine import Axis, Machine
+from linuxcnc_programs import MEASURED, TOL, machine
+
+pytestmark = pytest.mark.linuxcnc
 
 
 def test_report_puts_both_sides_measured_the_same_way(runs):

@@ -9,12 +9,14 @@ from pathlib import Path as FsPath
 
 import numpy as np
 import pytest
-from linuxcnc_programs import MEASURED, TOL, distance_to, live_linuxcnc_processes, machine, programmed, running_now
 
 from flowmc.devices.linuxcnc.backend import MOTION_TRAVERSE, StartState, render_ini, run_program
 from flowmc.devices.linuxcnc.session import LINUXCNC_LOCK, Session, exclusive, our_processes
 from flowmc.errors import DeviceError, GcodeError, LimitError
 from flowmc.motion.machine import Axis, Machine
+from linuxcnc_programs import MEASURED, TOL, distance_to, live_linuxcnc_processes, machine, programmed, running_now
+
+pytestmark = pytest.mark.linuxcnc
 
 
 @pytest.mark.parametrize("name", ["thesis", *MEASURED])

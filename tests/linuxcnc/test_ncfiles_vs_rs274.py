@@ -18,11 +18,12 @@ from pathlib import Path as FsPath
 import numpy as np
 import pytest
 
-from gcode_compare import assert_same_moves
-
 from flowmc.devices.linuxcnc.rs274 import MACHINE_UNITS_MM, run_rs274
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode import GcodeOptions, ToolTable, interpret
+from gcode_compare import assert_same_moves
+
+pytestmark = pytest.mark.linuxcnc
 
 NCFILES = FsPath("/usr/share/linuxcnc/ncfiles")
 SIM = FsPath("/usr/share/doc/linuxcnc/examples/sample-configs/sim/axis")

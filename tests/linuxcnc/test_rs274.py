@@ -9,6 +9,8 @@ import pytest
 from flowmc.devices.linuxcnc.rs274 import ARC, FEED, NURBS, TRAVERSE, number_lines, parse_canon, run_rs274, run_rs274_file
 from flowmc.errors import GcodeError
 
+pytestmark = pytest.mark.linuxcnc
+
 
 def test_lines_and_traverses_in_mm_with_feed_in_mm_per_s_and_source_lines():
     prog = run_rs274("G21 G90\n\n(a comment)\nG0 X5 Y5\nG1 X10 F600\nY20 Z-1\nM2\n", name="p.ngc")

@@ -15,8 +15,16 @@ from PIL import Image
 
 from flowmc.errors import PathError
 from flowmc.motion import contour
-from flowmc.motion.contour import (DEFAULT_METHOD, METHODS, Contour, contours_report_4neighbour, image_contours,
-                                   image_to_path, load_gray, order_contours)
+from flowmc.motion.contour import (
+    DEFAULT_METHOD,
+    METHODS,
+    Contour,
+    contours_report_4neighbour,
+    image_contours,
+    image_to_path,
+    load_gray,
+    order_contours,
+)
 
 H, W, MPP = 200, 300, 0.1  # px, px, mm per pixel: a 30 x 20 mm picture
 CIRCLE = (8.03, 10.02, 6.01)  # centre x, y and radius, mm

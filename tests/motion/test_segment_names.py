@@ -19,7 +19,6 @@ from flowmc.motion.path_steps import path_to_steps
 from flowmc.motion.segment_table import path_from_rows
 from flowmc.motion.trajectory import Steps, Trajectory
 
-
 MACHINE = Machine(axes=(Axis(name="X", step_mm=0.01), Axis(name="Y", step_mm=0.01), Axis(name="Z", min=-50, max=50)),
                   period=0.002)
 ROWS = [

@@ -20,7 +20,6 @@ from flowmc.motion.trajectory import Signal
 from flowmc.plugins import default_registry
 from flowmc.registry import NodeType, Out
 
-
 MACHINE = Machine(axes=(Axis(name="X", step_mm=0.01, vmax=50.0, amax=500.0, max_step_rate=20000.0),
                         Axis(name="Y", step_mm=0.01, vmax=50.0, amax=500.0, max_step_rate=20000.0),
                         Axis(name="Z", min=-50.0, max=50.0)), period=0.002)

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import flowmc
 
-
 ROWS = [
     {"type": "line", "end": [40.0, 0.0, 0.0]},
     {"type": "arc", "direction": "ccw", "radius": 10.0, "start_angle": -90.0, "end_angle": 90.0},

@@ -7,12 +7,14 @@ import re
 
 import numpy as np
 import pytest
-from browser_helpers import EditorPage, chromium, expected, wait_until
-from editor_graphs import example_file
 
 import flowmc
+from browser_helpers import EditorPage, chromium, expected, wait_until
+from editor_graphs import example_file
 from flowmc.ui import canvas_draw
 from flowmc.ui.app import Editor
+
+pytestmark = pytest.mark.browser
 
 DONE = expected(canvas_draw.STATUS_COLORS["done"])
 

@@ -13,9 +13,9 @@ import urllib.request
 from pathlib import Path
 
 import pytest
-from editor_graphs import example_file
 
 import flowmc
+from editor_graphs import example_file
 from flowmc.devices.session import DeviceSession
 from flowmc.ui import layout
 from flowmc.ui.app import Editor

@@ -16,11 +16,11 @@ from types import SimpleNamespace
 import msgspec
 import pytest
 import viser
-from browser_helpers import chromium
-from editor_graphs import example_file
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
+from browser_helpers import chromium
+from editor_graphs import example_file
 from flowmc.ui.app import Editor
 from flowmc.ui.guard import Guard
 from flowmc.ui.viser_internals import update_allowed
@@ -151,6 +151,7 @@ def _evil_site(html: str):
     return server
 
 
+@pytest.mark.browser
 def test_a_page_from_another_origin_in_the_same_browser_cannot_connect(editor):
     """The attack of the issue: the user has the editor open (its cookie is in the browser), then visits
     a page on another origin that opens the editor's websocket. 127.0.0.1 on another port is the same

@@ -14,11 +14,11 @@ import re
 from pathlib import Path
 
 import pytest
-from browser_helpers import chromium
 from viser import _messages
 from viser.infra import _infra
 
 import flowmc
+from browser_helpers import chromium
 from flowmc.devices.session import DeviceSession
 from flowmc.ui.app import Editor
 from flowmc.ui.text import escape_html, escape_md, md, plain, unescape_md
@@ -111,6 +111,7 @@ def _check_markdown(text: str) -> None:
     assert "\x1b" not in text and "\x00" not in text, text
 
 
+@pytest.mark.browser
 def test_every_ui_path_shows_hostile_text_as_text(tmp_path, monkeypatch):
     folder, runs, broken = _hostile_folder(tmp_path)
     recorder = Recorder(monkeypatch)

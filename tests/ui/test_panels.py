@@ -20,8 +20,8 @@ from flowmc.registry import In, NodeType, Out
 from flowmc.ui.device_panel import DevicePanel
 from flowmc.ui.front_panel import FrontPanel, control_specs
 from flowmc.ui.session import EditorSession
-from flowmc.ui.view3d import ToolpathView
 from flowmc.ui.text import unescape_md
+from flowmc.ui.view3d import ToolpathView
 
 
 @pytest.fixture

@@ -6,11 +6,11 @@ import json
 
 import numpy as np
 import pytest
-from editor_graphs import ROWS, example_builder, example_file
 
 import flowmc
-from flowmc.plugins import default_registry
+from editor_graphs import ROWS, example_builder, example_file
 from flowmc.errors import GraphError
+from flowmc.plugins import default_registry
 from flowmc.ui import layout
 from flowmc.ui.palette import palette_items, search
 from flowmc.ui.params import field_errors

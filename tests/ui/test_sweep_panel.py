@@ -8,9 +8,9 @@ import shutil
 from pathlib import Path
 
 import pytest
-from browser_helpers import EditorPage, chromium, wait_until
 
 import flowmc
+from browser_helpers import EditorPage, chromium, wait_until
 from flowmc.graph import InterfaceInput
 from flowmc.ui.app import Editor
 from flowmc.ui.front_panel import ControlSpec
@@ -116,6 +116,7 @@ def test_hardware_devices_are_refused_in_the_panel(tmp_path):
         ed.close()
 
 
+@pytest.mark.browser
 def test_the_sweep_tab_in_a_browser_shows_the_plot(editor, tmp_path):
     panel = editor.sweep_panel
     panel.begin().join(180)

@@ -47,7 +47,7 @@ def _sinks(tree: ast.AST):
                 if isinstance(target, ast.Attribute) and target.attr == "content":
                     yield node.value, node.lineno
                 elif isinstance(target, ast.Tuple) and isinstance(node.value, (ast.Tuple, ast.IfExp)):
-                    for k, element in enumerate(target.elts):
+                    for element in target.elts:
                         if isinstance(element, ast.Attribute) and element.attr == "content":
                             yield node.value, node.lineno
 

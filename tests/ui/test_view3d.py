@@ -13,9 +13,8 @@ from flowmc.devices.sim import SimCard
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 from flowmc.ui import view3d_data as data
-from flowmc.ui.view3d import ToolpathView, embed_html
 from flowmc.ui.text import unescape_md
-
+from flowmc.ui.view3d import ToolpathView, embed_html
 
 ROWS = [
     {"type": "line", "end": [30.0, 0.0, 0.0]},

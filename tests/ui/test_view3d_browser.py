@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+import pytest
 from PIL import Image
 from playwright.sync_api import sync_playwright
 
@@ -13,6 +14,7 @@ from flowmc.motion.machine import Machine
 from flowmc.ui import view3d_data as data
 from flowmc.ui.view3d import ToolpathView
 
+pytestmark = pytest.mark.browser
 
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]

@@ -170,7 +170,8 @@ def run_program(gcode: str, machine: Machine | None = None, *, servo_period: flo
 
     The machine homes in place at ``start.home`` (default: 0 clipped into each axis's travel) and
     sets its outputs and spindle as ``start`` says; the program moves from there. ``timeout`` (s)
-    bounds the program; ``on_progress(line)`` is called as the executed program line changes. Raises GcodeError (``name:line``) for a program LinuxCNC refuses and
+    bounds the program; ``on_progress(line)`` is called as the executed program line changes. Raises GcodeError
+    (``name:line``) for a program LinuxCNC refuses and
     LimitError (``name:line``) for one that would leave an axis's travel, DeviceError when LinuxCNC
     cannot run or does not finish; LinuxCNC is shut down either way.
     """

@@ -67,7 +67,8 @@ class SimCard(MotionCard):
     (1-8, or None: the card's default, no e-stop input); ``analog`` ("da" or "pwm": the jumper on
     the shared terminal); ``spindle_outputs`` (run, counter-clockwise); ``pen_output``: the digital
     output a program's tool (pen) signal drives, down = on (None, the default, or 0: none, the tool
-    state is only logged; a plotter names its pen output); ``homing`` speeds; ``state``: start from the end state of an earlier log (``log.state``).
+    state is only logged; a plotter names its pen output); ``homing`` speeds; ``state``: start from the end state of an
+    earlier log (``log.state``).
     """
 
     def __init__(self, machine: Machine | None = None, *, closed_loop: bool = False,

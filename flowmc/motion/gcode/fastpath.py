@@ -18,7 +18,7 @@ import warnings
 
 import numpy as np
 
-from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, _R_REACH_MM, _SPIRAL_ABS, _SPIRAL_REL
+from flowmc.motion.gcode.arcs import _R_REACH_MM, _SPIRAL_ABS, _SPIRAL_REL, SPIRAL_WARN_MM
 from flowmc.motion.path import PLANES
 
 __all__ = ["plain_lines", "run_plain"]

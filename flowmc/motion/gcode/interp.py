@@ -20,9 +20,9 @@ import math
 import re
 from dataclasses import dataclass, field
 
-from flowmc.errors import GcodeError
 import flowmc.motion.gcode.codes as C
 import flowmc.motion.gcode.expr as X
+from flowmc.errors import GcodeError
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, ArcError, centre_ijk, centre_r
 from flowmc.motion.gcode.canon import Canon
 from flowmc.motion.gcode.codes import InterpError
