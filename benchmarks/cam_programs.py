@@ -37,7 +37,7 @@ from flowmc.motion.gcode import read_gcode
 from flowmc.motion.gcode_write import path_to_gcode
 from flowmc.motion.lookahead import plan_stop_and_go
 from flowmc.motion.machine import Axis, Machine
-from flowmc.motion.metrics import contour_error, coverage_error, programmed_polyline
+from flowmc.motion.metrics import contour_error, farthest_from, programmed_polyline
 from flowmc.motion.path import Path
 from flowmc.motion.planner import plan_smooth
 
@@ -76,10 +76,10 @@ def sampled(traj_positions: np.ndarray, period: float, limit: float) -> dict:
 
 def feed_points(path: Path, spacing: float = 0.005) -> np.ndarray:
     """Points at most ``spacing`` apart along the path's feed moves (rapids are not cut, so not judged)."""
-    pts, seg = path.sample(1e-4)
+    pts, seg = path.sample(1e-4)  # every point after the first ends a chord of the segment it belongs to
     feed = np.array([not s.rapid for s in path.segments])
-    same = (seg[1:] == seg[:-1]) & feed[seg[1:]]
-    a, b = pts[:-1][same], pts[1:][same]
+    keep = feed[seg[1:]]
+    a, b = pts[:-1][keep], pts[1:][keep]
     n = np.maximum(1, np.ceil(np.linalg.norm(b - a, axis=1) / spacing).astype(int))
     frac = np.concatenate([np.arange(k) / k for k in n])
     owner = np.repeat(np.arange(len(a)), n)
@@ -94,7 +94,7 @@ def measure(positions: np.ndarray, period: float, path: Path, cutting: np.ndarra
     edges = np.flatnonzero(np.diff(np.r_[0, cutting.astype(int), 0]))
     out["dev_to_path"] = max((contour_error(positions[a:b + 1], programmed) for a, b in zip(edges[::2], edges[1::2])),
                              default=0.0)
-    out["dev_from_path"] = coverage_error(positions, feed_points(path))
+    out["dev_from_path"] = farthest_from(positions, feed_points(path))
     return out
 
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from flowmc.motion.lookahead import plan_lookahead, plan_stop_and_go
 from flowmc.motion.machine import Machine
-from flowmc.motion.metrics import contour_error, coverage_error, peak_ratio, programmed_polyline, trajectory_report
+from flowmc.motion.metrics import coverage_error, peak_ratio, programmed_polyline, trajectory_report
 from flowmc.motion.path import Arc, Line, Path
 
 sys.path.insert(0, str(FsPath(__file__).parent))

@@ -27,7 +27,7 @@ from flowmc.errors import PathError, PlanningError
 from flowmc.motion import nurbs, profiles, timediv
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
-from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path, describe_segment
+from flowmc.motion.path import PLANES, Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, describe_segment
 from flowmc.motion.signals import path_signals
 from flowmc.motion.trajectory import Trajectory
 
@@ -102,6 +102,7 @@ def time_division(path: Path, machine: Machine, *, profile: Literal["trapezoid",
         elif isinstance(seg, Line):
             radius = math.inf
         else:  # ellipse or NURBS: sampled by arc length, bounded by its tightest radius
+            assert isinstance(seg, (EllipseArc, NurbsCurve)), type(seg).__name__
             radius = seg.min_radius
         if math.isfinite(radius):
             accel = amax * _SPLIT

@@ -32,8 +32,8 @@ from flowmc.errors import PlanningError
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
-from flowmc.motion.planner import SmoothPlan, plan_smooth
 from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle
+from flowmc.motion.planner import SmoothPlan, plan_smooth
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid
 from flowmc.motion.signals import path_signals, segment_start_times
 from flowmc.motion.trajectory import Trajectory
@@ -333,7 +333,7 @@ def _stack(columns: list[tuple], runs_n: int) -> _Phases:
 
 def _profile_phases(profiles: list[Profile]) -> _Phases:
     """Phases from profiles.py profiles, one per run."""
-    cols = {name: [] for name in ("dur", "v0", "a0", "jerk", "dv", "ratio", "run")}
+    cols: dict[str, list[np.ndarray]] = {name: [] for name in ("dur", "v0", "a0", "jerk", "dv", "ratio", "run")}
     for r, prof in enumerate(profiles):
         m = len(prof.seg_v)
         cols["dur"].append(np.diff(prof.t))

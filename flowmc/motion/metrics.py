@@ -27,6 +27,7 @@ __all__ = [
     "programmed_polyline",
     "contour_error",
     "coverage_error",
+    "farthest_from",
     "feed_ratio",
     "feed_fluctuation",
     "trajectory_report",
@@ -176,9 +177,15 @@ def coverage_error(positions: np.ndarray, polyline: np.ndarray, spacing: float =
     frac = np.concatenate([np.arange(k) / k for k in n])
     owner = np.repeat(np.arange(len(steps)), n)
     points = np.vstack([path[owner] + frac[:, None] * steps[owner], path[-1:]])
+    return farthest_from(positions, points)
+
+
+def farthest_from(positions: np.ndarray, points: np.ndarray) -> float:
+    """The largest distance from any of ``points`` to the sampled tool path (the polyline through the
+    setpoints ``positions``)."""
     tool = np.asarray(positions, dtype=float)
     tool = tool[np.r_[True, np.any(np.diff(tool, axis=0) != 0, axis=1)]]  # rests add nothing
-    d, _ = _PolylineDistance(tool)(points)
+    d, _ = _PolylineDistance(tool)(np.asarray(points, dtype=float))
     return float(d.max())
 
 

@@ -52,9 +52,9 @@ from scipy.linalg import solveh_banded
 from scipy.ndimage import uniform_filter1d
 
 from flowmc.errors import PlanningError
-from flowmc.motion.curve import ARC, POLY, CurveBuilder, PlannedCurve
+from flowmc.motion.curve import POLY, CurveBuilder, PlannedCurve
 from flowmc.motion.limits import PathLimits, segment_feed
-from flowmc.motion.path import PLANES, Arc, Dwell, Line, Path, describe_segment
+from flowmc.motion.path import PLANES, Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, describe_segment
 from flowmc.motion.pieces import REVERSAL, check_axes, corner_angle
 from flowmc.motion.ranges import window_max
 
@@ -155,6 +155,7 @@ def raw_curve(path: Path) -> tuple[PlannedCurve, _Elements]:
                    seg.start_angle, seg.sweep / length, seg.rise / length)
             rows += 1
         else:
+            assert isinstance(seg, (EllipseArc, NurbsCurve)), type(seg).__name__
             n = int(max(4, math.ceil(length / min(_CURVE_STEP, 0.25 * seg.min_radius))))
             s = np.linspace(0.0, length, n + 1)
             tan = seg.tangent_at(np.array([0.0, length]))
@@ -166,13 +167,13 @@ def raw_curve(path: Path) -> tuple[PlannedCurve, _Elements]:
     curve = b.build(seg_u0)
     first = np.asarray(first_row)
     last = np.r_[first[1:] - 1, len(curve) - 1]
-    u0, u1 = seg_u0[moving], seg_u0[moving] + lengths[moving]
-    d_start = curve.evaluate(u0, 2, index=first)
-    d_end = curve.evaluate(u1, 2, index=last)
+    el_u0, el_u1 = seg_u0[moving], seg_u0[moving] + lengths[moving]
+    d_start = curve.evaluate(el_u0, 2, index=first)
+    d_end = curve.evaluate(el_u1, 2, index=last)
     t0, k0 = _unit_and_curvature(d_start[1], d_start[2])
     t1, k1 = _unit_and_curvature(d_end[1], d_end[2])
     is_line = np.array([isinstance(segs[i], Line) for i in moving])
-    return curve, _Elements(moving, u0, u1, is_line, t0, t1, k0, k1)
+    return curve, _Elements(moving, el_u0, el_u1, is_line, t0, t1, k0, k1)
 
 
 # ---------------------------------------------------------------- zones and runs
@@ -300,7 +301,7 @@ class _RunFitter:
     the tolerance of it at that t.
     """
 
-    def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: float, order: int = 2):
+    def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2):
         self.raw, self.ua, self.ub, self.tol = raw, ua, ub, tol
         self.order, self.stencil = order, _STENCILS[order]
         self.free_a, self.free_b = free_a, free_b
@@ -319,8 +320,8 @@ class _RunFitter:
         keep = (r_in >= 0) & (inner < ub[np.clip(r_in, 0, None)])
         u = np.concatenate([u, inner[keep]])
         run_of = np.concatenate([run_of, r_in[keep]])
-        order = np.lexsort((u, run_of))
-        self.pu, self.run_of = u[order], run_of[order]
+        sort = np.lexsort((u, run_of))
+        self.pu, self.run_of = u[sort], run_of[sort]
         self.q = raw.points(self.pu)
         self.bounds = np.searchsorted(self.run_of, np.arange(n_runs + 1))
         self.d_a = raw.evaluate(ua, 2, index=raw.interval_at(ua))
@@ -330,7 +331,7 @@ class _RunFitter:
         # kinks between them without reshaping the curve they describe
         k_raw = raw.interval_at(self.pu)
         self.seg_len = raw.u1[k_raw] - raw.u0[k_raw]
-        self.scale = None
+        self.scale: np.ndarray | None = None
 
     def _data_tangent(self, at: np.ndarray, length: np.ndarray, free: np.ndarray, way: float) -> np.ndarray:
         """Unit tangent of the programmed path at run ends ``at`` (going into the run): the slope at the end of
@@ -382,8 +383,8 @@ class _RunFitter:
         self.diff_start = np.concatenate([offset[r] + np.arange(ncp[r] - self.order) for r in range(n_runs)])
         self.diff_run = np.repeat(np.arange(n_runs), ncp - self.order)
         self.span_of = np.clip(np.floor((t - ua[run_of]) / hr[run_of]).astype(int), 0, spans[run_of] - 1) + offset[run_of]
-        per_cp = np.bincount(self.span_of, weights=np.minimum(self.seg_len, _ELL * hr[run_of]), minlength=total)
-        per_cp /= np.maximum(np.bincount(self.span_of, minlength=total), 1)
+        per_cp: np.ndarray = np.bincount(self.span_of, weights=np.minimum(self.seg_len, _ELL * hr[run_of]), minlength=total)
+        per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
         per_cp = uniform_filter1d(per_cp, size=41)
         hd = hr[self.diff_run]
         ell = np.clip(np.maximum(_ELL_SEGMENTS * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
@@ -449,13 +450,15 @@ class _RunFitter:
             for j in range(4):
                 np.maximum.at(over, self.span_of + j, resid / self.tol)
             row_over = window_max(over, self.reach_lo, self.reach_hi)
-            scale = np.where(row_over > 1.0, self.scale / (1.2 * row_over**2), self.scale)
+            prev = self.scale
+            assert prev is not None  # set by _setup
+            scale = np.where(row_over > 1.0, prev / (1.2 * row_over**2), prev)
             if it < _FIT_SETTLE:  # room to spare: smooth more again (up to where it started)
                 scale = np.where(row_over < _SPARE, np.minimum(scale * _RELAX, 1.0), scale)
             # changed gently along the run: a step in smoothing makes a kink in the curve's parameter
             scale = np.exp(np.minimum(uniform_filter1d(np.log(scale), size=_BLUR), np.log(scale)))
             # never below the smoothing of one knot span: less only lets the parameter wander along the path
-            self.scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, self.scale, np.inf)), self.floor)
+            self.scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, prev, np.inf)), self.floor)
         return best, ok_any, dev_best
 
     def _arc_length_params(self, coef: np.ndarray, width: np.ndarray):
@@ -495,7 +498,9 @@ class _RunFitter:
         n_runs = len(self.ua)
         width = self.ub - self.ua
         t = self.pu.copy()
-        knots, coefs, knot_pu = [None] * n_runs, [None] * n_runs, [None] * n_runs
+        knots: list[np.ndarray] = [np.empty(0)] * n_runs
+        coefs: list[np.ndarray] = [np.empty((0, 3))] * n_runs
+        knot_pu: list[np.ndarray] = [np.empty(0)] * n_runs
         ok_any = np.zeros(n_runs, dtype=bool)
         dev_best = np.full(n_runs, np.inf)
         for attempt in range(_PARAM_PASSES + 1):
@@ -587,7 +592,8 @@ def _copy_outside(raw: PlannedCurve, b: CurveBuilder, cut_a: np.ndarray, cut_b: 
     if arc.any():
         kk = k[arc]
         d = du[arc]
-        b.arcs(lo[arc], hi[arc], hi[arc] - lo[arc], raw.centre[kk] + (raw.rise[kk] * d)[:, None] * raw.w[kk], raw.e1[kk], raw.e2[kk],
+        centre = raw.centre[kk] + (raw.rise[kk] * d)[:, None] * raw.w[kk]
+        b.arcs(lo[arc], hi[arc], hi[arc] - lo[arc], centre, raw.e1[kk], raw.e2[kk],
                raw.w[kk], raw.radius[kk], raw.phi0[kk] + raw.dphi[kk] * d, raw.dphi[kk], raw.rise[kk])
 
 
@@ -622,7 +628,6 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
 
     # junctions between consecutive elements
     nj = len(el.seg) - 1
-    adjacent = el.seg[1:] == el.seg[:-1] + 1
     gap_stop = np.array([any(isinstance(segs[i], Dwell) or _stop_between(segs[i - 1], segs[i])
                              for i in range(a + 1, b + 1)) for a, b in zip(el.seg[:-1], el.seg[1:])], dtype=bool)
     alpha = corner_angle(el.t1[:-1], el.t0[1:]) if nj > 0 else np.zeros(0)
@@ -671,11 +676,11 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         typical = np.array([np.median(widths[a:max(b, a + 1)]) for a, b in zip(lo_i, hi_i)])
         h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
         pending, devs = fits, []
-        for attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
+        for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
             fit = _RunFitter(raw, runs.ua[pending], runs.ub[pending], runs.free_a[pending], runs.free_b[pending],
                              tol_fit, h[np.searchsorted(fits, pending)], order=3 if g2 else 2).fit()
             ncp = np.diff(np.r_[fit.offset, len(fit.coef)])
-            for i, r in enumerate(pending):
+            for i in range(len(pending)):
                 if fit.ok[i]:
                     x, pu, coef = _run_polys(fit, i, ncp[i])
                     b.polys(pu, coef, widths=np.diff(x))

@@ -271,6 +271,7 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
         if _converged(high, low):
             break
         high = _scan(node_cap, ds, budget_of(np.minimum(cap, np.maximum(low[:-1], low[1:]))))
+    assert low is not None and budget is not None, "at least one round"
     return low, budget
 
 
@@ -449,9 +450,11 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
         wide = width >= window * np.sqrt(mid)
         lo, hi = np.where(wide, mid, lo), np.where(wide, hi, mid)
     level = np.minimum(lo, top * (1.0 - 1e-6))
-    # every node of a peak above its level is capped there
+    # every node of a peak above its level is capped there: both sides and the top between them
     caps = np.full(len(y), np.inf)
-    for nodes, length in ((l_nodes, l_len), (r_nodes, r_len)):
+    t_len = fall - rise
+    t_nodes = np.concatenate([np.arange(a + 1, b + 1) for a, b in zip(rise, fall)])
+    for nodes, length in ((l_nodes, l_len), (r_nodes, r_len), (t_nodes, t_len)):
         lv = np.repeat(level, length)
         above = y[nodes] > lv
         np.minimum.at(caps, nodes[above], lv[above])

@@ -18,6 +18,7 @@ when the side limits jerk) is flagged in the table's ``over`` column.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -184,14 +185,15 @@ def compare_trajectories(flowmc: Trajectory, linuxcnc: LinuxCNCRun, path: Path, 
         f_over = not np.isnan(r[4]) and r[2] > r[4]
         l_over = not np.isnan(r[5]) and r[3] > r[5]
         over.append({(True, True): "both", (True, False): "flowmc", (False, True): "linuxcnc"}.get((f_over, l_over), ""))
-    limit = [r[4] if not np.isnan(r[4]) else r[5] for r in rows]
+    limit_col = [r[4] if not np.isnan(r[4]) else r[5] for r in rows]
     return Table({"quantity": [r[0] for r in rows], "unit": [r[1] for r in rows],
                   "flowmc": [float(r[2]) for r in rows], "linuxcnc": [float(r[3]) for r in rows],
-                  "limit": [float(x) for x in limit], "over": over})
+                  "limit": [float(x) for x in limit_col], "over": over})
 
 
 def compare_path(path: Path, machine: Machine | None = None, *, tolerance: float = 0.05,
-                 profile: str = "trapezoid", flowmc: Trajectory | None = None, flowmc_settings: Settings | None = None,
+                 profile: Literal["trapezoid", "scurve"] = "trapezoid",
+                 flowmc: Trajectory | None = None, flowmc_settings: Settings | None = None,
                  servo_period: float = SERVO_PERIOD) -> Comparison:
     """Plan ``path`` with flowmc like LinuxCNC (same limits, period, tolerance; ``profile`` trapezoid unless
     told otherwise), run it on LinuxCNC as G-code with ``G64 P<tolerance>``, and compare.
@@ -226,7 +228,7 @@ def _differences(ours: Settings, theirs: Settings, path: Path, machine: Machine)
         out.append(f"period: flowmc {ours.period * 1e3:g} ms, LinuxCNC {theirs.period * 1e3:g} ms")
     if ours.tolerance is None:
         out.append(f"tolerance: flowmc's plan was made elsewhere (unknown), LinuxCNC G64 P{theirs.tolerance:g}")
-    elif abs(ours.tolerance - theirs.tolerance) > 1e-12:
+    elif theirs.tolerance is None or abs(ours.tolerance - theirs.tolerance) > 1e-12:
         out.append(f"tolerance: flowmc {ours.tolerance:g} mm, LinuxCNC G64 P{theirs.tolerance:g}")
     xyz = [a for a in machine.axes if a.name.upper() in AXES]
     rapid_rate = max(a.vmax for a in xyz) if xyz else 0.0
