@@ -1,7 +1,9 @@
 """flowmc's planner against LinuxCNC on real CAM code and the reference paths, measured in the same run.
 
 Programs: LinuxCNC's own sample programs flowsnake, 3D_Chips, spiral, arcspiral and 3dtest (Debian's
-linuxcnc-uspace installs them in /usr/share/linuxcnc/ncfiles) and the four reference paths. flowmc's
+linuxcnc-uspace installs them in /usr/share/linuxcnc/ncfiles), ``raster`` (a dense 2.5D finishing raster
+written here: 0.25 mm steps along X over a wavy surface, 1 mm step-over, 3,200 short lines) and the four
+reference paths. flowmc's
 G-code reader (flowmc.motion.gcode, LinuxCNC semantics: O-words, parameters, polar and relative moves)
 reads them; the Path it gives is what both sides run (LinuxCNC gets it back through flowmc's G-code
 writer). Every feed is set to F12000 mm/min (200 mm/s; 3D_Chips asks for more, the axes allow 200),
@@ -43,7 +45,7 @@ from flowmc.motion.planner import plan_smooth
 
 ROOT = FsPath(__file__).resolve().parents[1]
 NCFILES = FsPath("/usr/share/linuxcnc/ncfiles")
-CAM = ("flowsnake", "3D_Chips", "spiral", "arcspiral", "3dtest")
+CAM = ("flowsnake", "3D_Chips", "spiral", "arcspiral", "3dtest", "raster")
 REFERENCE = ("mixed", "star10", "zigzag40", "ellipse200")
 FEED = 200.0  # mm/s: F12000 mm/min
 TOL = 0.05
@@ -55,8 +57,28 @@ def machine(jerk: float = JERK, period: float = 0.001) -> Machine:
                    period=period)
 
 
+def raster_gcode(step: float = 0.25, stepover: float = 1.0, width: float = 40.0, lines: int = 20) -> str:
+    """A dense finishing raster over z = 2 sin(x/4) cos(y/5): back and forth along X, ``step`` mm moves."""
+    out = ["G21 G90 G17 G64 P0.05", "G0 Z5", "G0 X0 Y0"]
+    xs = np.linspace(0.0, width, int(round(width / step)) + 1)
+    for i in range(lines):
+        y = i * stepover
+        row = xs if i % 2 == 0 else xs[::-1]
+        z = 2.0 * np.sin(row / 4.0) * np.cos(y / 5.0) - 3.0
+        out.append(f"G1 X{row[0]:.4f} Y{y:.4f} Z{z[0]:.4f} F12000")
+        out += [f"X{x:.4f} Z{zz:.4f}" for x, zz in zip(row[1:], z[1:])]
+    out += ["G0 Z5", "M2"]
+    return "\n".join(out) + "\n"
+
+
 def program_path(name: str) -> Path:
     """The program as flowmc's G-code reader reads it (LinuxCNC semantics), every feed F12000."""
+    if name == "raster":
+        import tempfile
+        with tempfile.TemporaryDirectory() as tmp:
+            file = FsPath(tmp) / "raster.ngc"
+            file.write_text(raster_gcode())
+            return read_gcode(file).with_feed(FEED)
     return read_gcode(NCFILES / f"{name}.ngc").with_feed(FEED)
 
 
@@ -173,7 +195,8 @@ def cold_start(name: str = "3D_Chips", runs: int = 3) -> None:
 def report(rows: list[dict], args) -> None:
     print("\nTrapezoid, per-axis 200 mm/s and 200 mm/s^2, tolerance 0.05 mm, T = 1 ms (feed moves, s)\n")
     head = (f"{'program':<11}{'segs':>6}{'flowmc':>9}{'LinuxCNC':>10}{'ratio':>7}{'TOPP-RA':>9}{'/topp':>7}"
-            f"{'dev->':>8}{'dev<-':>8}{'LC dev->':>9}{'LC dev<-':>9}{'a/amax':>8}{'LC a':>7}{'plan s':>8}")
+            f"{'dev->':>8}{'dev<-':>8}{'LC dev->':>9}{'LC dev<-':>9}{'v/vmax':>7}{'a/amax':>7}{'LC v':>6}{'LC a':>6}"
+            f"{'plan s':>8}")
     print(head)
     print("-" * len(head))
     for r in rows:
@@ -183,13 +206,16 @@ def report(rows: list[dict], args) -> None:
               f"{r.get('topp', float('nan')):>9.3f}{r['trap_total'] / r.get('topp', float('nan')):>7.3f}"
               f"{r['trap']['dev_to_path']:>8.4f}{r['trap']['dev_from_path']:>8.4f}"
               f"{lcd.get('dev_to_path', float('nan')):>9.4f}{lcd.get('dev_from_path', float('nan')):>9.4f}"
-              f"{r['trap']['a'] / 200:>8.3f}{lcd.get('a', float('nan')) / 200:>7.2f}{r['wall_trap']:>8.2f}")
+              f"{r['trap']['v'] / 200:>7.3f}{r['trap']['a'] / 200:>7.3f}{lcd.get('v', float('nan')) / 200:>6.2f}"
+              f"{lcd.get('a', float('nan')) / 200:>6.2f}{r['wall_trap']:>8.2f}")
     print("\nS-curve, per-axis jerk 5000 mm/s^3 (and the same limits), T = 1 ms\n")
-    head = f"{'program':<11}{'S-curve s':>10}{'/ trap':>8}{'j/jmax':>8}{'dev->':>8}{'dev<-':>8}{'plan s':>8}"
+    head = (f"{'program':<11}{'S-curve s':>10}{'/ trap':>8}{'v/vmax':>8}{'a/amax':>8}{'j/jmax':>8}{'dev->':>8}{'dev<-':>8}"
+            f"{'plan s':>8}")
     print(head)
     print("-" * len(head))
     for r in rows:
-        print(f"{r['name']:<11}{r['s_feed']:>10.3f}{r['s_feed'] / r['trap_feed']:>8.3f}{r['s']['j'] / JERK:>8.3f}"
+        print(f"{r['name']:<11}{r['s_feed']:>10.3f}{r['s_feed'] / r['trap_feed']:>8.3f}{r['s']['v'] / 200:>8.3f}"
+              f"{r['s']['a'] / 200:>8.3f}{r['s']['j'] / JERK:>8.3f}"
               f"{r['s']['dev_to_path']:>8.4f}{r['s']['dev_from_path']:>8.4f}{r['wall_scurve']:>8.2f}")
     if "mixed" in [r["name"] for r in rows]:
         m4 = machine(500.0, 0.004)

@@ -124,6 +124,18 @@ def test_compare_flags_a_side_over_its_limits():
     assert over["peak acceleration Y"] == "flowmc"  # the step onto y = 0.2
     assert over["peak velocity X"] == over["peak jerk Y"] == ""  # 20 mm/s is within vmax; jerk is not limited here
 
+    class FastRun:  # and the other way round: LinuxCNC's record over the feed and 0.2 mm off, flowmc clean
+        samples = pos
+        motion_type = np.full(len(t), 2)
+        servo_period = 0.001
+        feed_time = duration = 0.5
+
+    clean = Trajectory(Run.samples, 0.001, np.zeros(1001, dtype=int))
+    table = compare_trajectories(clean, FastRun(), path, machine(), 0.05)
+    over = dict(zip(table["quantity"], table["over"]))
+    assert over["peak path speed over the feed"] == over["deviation from the programmed path"] == "linuxcnc"
+    assert over["deviation of the programmed path from the tool path"] == "linuxcnc"
+
 
 def test_compare_names_a_graph_without_a_path(tmp_path, capsys):
     file = tmp_path / "empty.flowmc.json"
