@@ -35,7 +35,7 @@ CONFIGS = [("local", 1), ("local", 2), ("dask", 1), ("dask", 2)]
 
 
 def tolerances(step: float) -> list[float]:
-    count = int(round(0.5 / step))
+    count = round(0.5 / step)
     return [round(step * (k + 1), 10) for k in range(count)]
 
 

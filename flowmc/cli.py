@@ -308,6 +308,8 @@ def build_parser() -> argparse.ArgumentParser:
     plugins = argparse.ArgumentParser(add_help=False)
     plugins.add_argument("--nodes", action="append", default=[], metavar="DIR",
                          help="also load the node types in this folder's *.py files (repeatable)")
+    plugins.add_argument("--memory-mb", type=float, metavar="MB",
+                         help="memory budget for what one node may produce (default 256 MB, or FLOWMC_MEMORY_MB)")
 
     p = sub.add_parser("run", parents=[plugins], help="run a graph headless")
     p.add_argument("file", help="graph file (*.flowmc.json)")
@@ -353,9 +355,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _set_memory_budget(megabytes: float) -> None:
+    import flowmc.budget as budget
+
+    try:
+        budget.configure(memory_mb=megabytes)
+    except ValueError as exc:
+        raise UsageError(f"--memory-mb: {exc}") from None
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "memory_mb", None) is not None:
+            _set_memory_budget(args.memory_mb)
         return args.func(args)
     except GraphError as exc:
         if exc.issues:

@@ -17,6 +17,7 @@ __all__ = [
     "PlanningError",
     "DeviceError",
     "LimitError",
+    "BudgetError",
     "printable",
 ]
 
@@ -73,3 +74,8 @@ class DeviceError(FlowmcError):
 
 class LimitError(DeviceError):
     """A program that would break a machine limit; raised by pre-flight before anything is sent."""
+
+
+class BudgetError(FlowmcError):
+    """A node would produce more than the resource budget allows (``flowmc.budget``); the
+    message says how much was asked for, the cap, and what to change."""

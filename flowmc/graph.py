@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +22,9 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
+import flowmc.budget as budget
 from flowmc.errors import GraphError
+from flowmc.fileio import read_text
 from flowmc.migrations import SCHEMA_VERSION, migrate
 from flowmc.ports import PORT_TYPES
 
@@ -188,15 +191,51 @@ def _schema_issues(exc: ValidationError, raw: Any) -> list[Issue]:
     return issues
 
 
+def _check_shape(raw: Any, where: str) -> None:
+    """Refuse JSON nested deeper than the budget (deep nesting exhausts recursion later) and text
+    that is not Unicode (a lone surrogate ``\\ud800`` cannot be saved or shown)."""
+    limit = budget.cap("depth")
+    stack: list[tuple[Any, tuple[Any, ...]]] = [(raw, ())]
+    while stack:
+        value, loc = stack.pop()
+        if len(loc) > limit:
+            raise GraphError(f"{_json_path(loc[:limit])}: nested deeper than {limit} levels", where=where)
+        if isinstance(value, dict):
+            stack.extend((v, (*loc, k)) for k, v in value.items())
+            items: Any = value.keys()
+        elif isinstance(value, list):
+            stack.extend((v, (*loc, i)) for i, v in enumerate(value))
+            items = ()
+        else:
+            items = (value,)
+        for text in items:
+            if isinstance(text, str) and _SURROGATE.search(text):
+                raise GraphError(f"{_json_path(loc)}: text holds a lone surrogate (\\ud800-\\udfff), "
+                                 "which is not Unicode text", where=where)
+
+
+_SURROGATE = re.compile("[\ud800-\udfff]")
+
+
 def loads(text: str, where: str = "<string>") -> Graph:
     """Parse graph JSON; raise GraphError (with ``issues``) naming ``where`` and the JSON path."""
+    if text.startswith("\ufeff"):
+        text = text[1:]  # a byte-order mark some editors write
+    limit = budget.cap("json_bytes")
+    if len(text) > limit:
+        raise GraphError(f"the graph is {len(text):,} characters, over the budget of {limit:,}: keep big data "
+                         "in the files it reads (G-code, pictures), or raise the memory budget "
+                         "(flowmc run --memory-mb, FLOWMC_MEMORY_MB)", where=where)
     try:
         raw = json.loads(text, parse_constant=_reject_constant)
     except json.JSONDecodeError as exc:
         raise GraphError(f"invalid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})",
                          where=f"{where}:{exc.lineno}:{exc.colno}") from None
+    except RecursionError:
+        raise GraphError(f"invalid JSON: nested deeper than {budget.cap('depth')} levels", where=where) from None
     except ValueError as exc:
         raise GraphError(f"invalid JSON: {exc}", where=where) from None
+    _check_shape(raw, where)
     raw = migrate(raw, where)
     try:
         return Graph.model_validate(raw)
@@ -209,12 +248,7 @@ def loads(text: str, where: str = "<string>") -> Graph:
 def load(path: str | os.PathLike) -> Graph:
     """Load a ``*.flowmc.json`` file. Missing or unreadable files raise GraphError naming the file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise GraphError("no such graph file", where=str(path)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise GraphError(f"cannot read graph file: {exc}", where=str(path)) from None
+    text = read_text(path, limit=budget.cap("json_bytes"), what="graph file", error=GraphError)
     graph = loads(text, where=str(path))
     graph.path = path
     return graph

@@ -19,10 +19,11 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Any, Literal, Sequence
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.errors import PathError
 from flowmc.motion.path import Line, Path
 
@@ -36,6 +37,7 @@ __all__ = [
     "contours_marching_squares",
     "image_contours",
     "simplify",
+    "simplify_all",
     "order_contours",
     "contours_to_path",
     "image_to_path",
@@ -70,6 +72,9 @@ def load_gray(file: str | os.PathLike) -> np.ndarray:
     name = os.fspath(file)
     try:
         with Image.open(name) as img:
+            width, height = img.size
+            budget.check("pixels", width * height, what=f"a {width} x {height} px picture", where=name,
+                         change="scale the picture down (a plotter needs far fewer pixels)")
             img.load()
             if "A" in img.getbands() or "transparency" in img.info:
                 rgba = img.convert("RGBA")
@@ -130,6 +135,8 @@ def contours_report_4neighbour(mask: np.ndarray) -> list[Contour]:
     resumed from the seed in the other direction. A chain whose ends touch is closed.
     """
     boundary = _boundary_pixels(np.asarray(mask, dtype=bool))
+    budget.check("segments", int(np.count_nonzero(boundary)), what="tracing the outline pixels of the picture",
+                 change="trace a cleaner picture (fewer specks and edges), or a smaller one")
     h, w = boundary.shape
     width = w + 2
     padded = np.pad(boundary, 1)
@@ -191,13 +198,74 @@ def contours_marching_squares(gray: np.ndarray, level: float, invert: bool = Fal
 
 # --------------------------------------------------------------------------- polylines
 
-def simplify(points: np.ndarray, tol: float) -> np.ndarray:
-    """Douglas-Peucker within ``tol`` (scikit-image's approximate_polygon); keeps both end points."""
-    if tol <= 0 or len(points) < 3:
-        return points
-    from skimage.measure import approximate_polygon
+SIMPLIFY_CHUNK = 256  # Douglas-Peucker recurses up to n deep on a zigzag: long outlines go in pieces
 
-    return approximate_polygon(np.asarray(points, dtype=float), tolerance=tol)
+
+def simplify(points: np.ndarray, tol: float) -> np.ndarray:
+    """Douglas-Peucker within ``tol``, keeping both end points (distances as scikit-image's
+    ``approximate_polygon``: to the chord where a point projects onto it, else to its nearer end)."""
+    return simplify_all([points], tol)[0]
+
+
+def simplify_all(polylines: Sequence[np.ndarray], tol: float) -> list[np.ndarray]:
+    """``simplify`` of each polyline, all in the same numpy passes."""
+    polylines = [np.asarray(p, dtype=float) for p in polylines]
+    if tol <= 0 or not polylines:
+        return polylines
+    sizes = np.array([len(p) for p in polylines])
+    points = np.vstack(polylines)
+    starts, ends = [], []
+    for offset, size in zip(np.cumsum(sizes) - sizes, sizes):
+        if size >= 3:
+            cuts = offset + np.unique(np.r_[np.arange(0, size - 1, SIMPLIFY_CHUNK), size - 1])
+            starts.append(cuts[:-1])
+            ends.append(cuts[1:])
+    keep = np.ones(len(points), dtype=bool)
+    if starts:
+        inner = _douglas_peucker(points, tol, np.concatenate(starts), np.concatenate(ends))
+        spans = np.zeros(len(points) + 1, dtype=np.int64)  # points strictly inside some piece are decided there
+        np.add.at(spans, np.concatenate(starts) + 1, 1)
+        np.add.at(spans, np.concatenate(ends), -1)
+        inside = np.cumsum(spans[:-1]) > 0
+        keep[inside] = inner[inside]
+    return np.split(points[keep], np.cumsum([int(k.sum()) for k in np.split(keep, np.cumsum(sizes)[:-1])])[:-1])
+
+
+def _douglas_peucker(points: np.ndarray, tol: float, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Mask of the points kept inside the pieces ``starts[i]..ends[i]``. Every open piece is split in the
+    same numpy pass, one level of the recursion at a time; an outline longer than ``SIMPLIFY_CHUNK``
+    starts as pieces of that length sharing their end points (still within ``tol``), so the passes are
+    at most that many and the time is linear in the number of points."""
+    keep = np.zeros(len(points), dtype=bool)
+    keep[starts] = keep[ends] = True
+    while starts.size:
+        inner = ends - starts - 1
+        open_ = inner > 0
+        starts, ends, inner = starts[open_], ends[open_], inner[open_]
+        if not starts.size:
+            break
+        piece = np.repeat(np.arange(starts.size), inner)
+        first = np.cumsum(inner) - inner
+        idx = starts[piece] + 1 + (np.arange(piece.size) - first[piece])
+        a, b, p = points[starts][piece], points[ends][piece], points[idx]
+        ab, ap, bp = b - a, p - a, p - b
+        along0 = np.einsum("ij,ij->i", ap, ab)
+        along1 = -np.einsum("ij,ij->i", bp, ab)
+        perp = (along0 > 0) & (along1 > 0)
+        dist = np.minimum(np.sqrt(ap[:, 1] ** 2 + ap[:, 0] ** 2), np.sqrt(bp[:, 1] ** 2 + bp[:, 0] ** 2))
+        angle = -np.arctan2(ab[perp, 0], ab[perp, 1])  # the chord's normal form, as scikit-image writes it
+        cos, sin = np.cos(angle), np.sin(angle)
+        dist[perp] = np.abs(p[perp, 0] * cos + p[perp, 1] * sin - (a[perp, 1] * sin + a[perp, 0] * cos))
+        far = np.maximum.reduceat(dist, first)
+        at_far = np.flatnonzero(dist == far[piece])
+        pieces_hit, first_hit = np.unique(piece[at_far], return_index=True)
+        split_at = np.empty(starts.size, dtype=np.int64)
+        split_at[pieces_hit] = idx[at_far[first_hit]]
+        split = far > tol
+        mid = split_at[split]
+        keep[mid] = True
+        starts, ends = np.r_[starts[split], mid], np.r_[mid, ends[split]]
+    return keep
 
 
 def order_contours(contours: Sequence[Contour], start=(0.0, 0.0)) -> list[Contour]:
@@ -217,10 +285,12 @@ def order_contours(contours: Sequence[Contour], start=(0.0, 0.0)) -> list[Contou
     pts, owner, vertex = np.vstack(cand), np.concatenate(owner), np.concatenate(vertex)
     free = np.ones(len(pts), dtype=bool)
     here = np.asarray(start, dtype=float)[:2]
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(pts)  # nearest free entry point in O(log n), not a scan of every point per contour
     out = []
     for _ in range(len(contours)):
-        d2 = np.where(free, np.einsum("ij,ij->i", pts - here, pts - here), np.inf)
-        pick = int(np.argmin(d2))
+        pick = _nearest_free(tree, free, here)
         k, v = int(owner[pick]), int(vertex[pick])
         c = contours[k]
         if c.closed:
@@ -233,6 +303,24 @@ def order_contours(contours: Sequence[Contour], start=(0.0, 0.0)) -> list[Contou
         free[owner == k] = False
         here = c.points[-1]
     return out
+
+
+def _nearest_free(tree: Any, free: np.ndarray, here: np.ndarray) -> int:
+    """Index of the free point nearest ``here`` (the lowest index among equally near ones)."""
+    n = len(free)
+    k = 16
+    while True:
+        k = min(k, n)
+        dist, idx = tree.query(here, k=k)
+        dist, idx = np.atleast_1d(dist), np.atleast_1d(idx)
+        ok = free[idx]
+        if ok.any():
+            best = dist[ok].min()
+            if k == n or dist[-1] > best:  # every point as near as the best one is in hand
+                return int(idx[ok & (dist <= best)].min())
+        elif k == n:
+            raise ValueError("no free point left")
+        k *= 4
 
 
 def _to_mm(contours: Sequence[Contour], shape: tuple[int, int], mm_per_pixel: float, origin) -> list[Contour]:
@@ -274,14 +362,22 @@ def image_contours(gray: np.ndarray, method: Method = DEFAULT_METHOD, threshold:
     else:
         raise PathError(f"unknown contour method {method!r}; use one of {', '.join(METHODS)}")
     tol_px = simplify_mm / mm_per_pixel
-    found = [Contour(simplify(c.points, tol_px), c.closed) for c in found]
+    found = [Contour(p, c.closed) for p, c in zip(simplify_all([c.points for c in found], tol_px), found)]
+    _check_moves(found, "picture")
     return _to_mm([c for c in found if len(c.points) >= 2], gray.shape, mm_per_pixel, origin)
+
+
+def _check_moves(contours: Sequence[Contour], name: str) -> None:
+    moves = sum(len(c.points) for c in contours) + len(contours)
+    budget.check("segments", moves, what=f"tracing {len(contours):,} outlines as {moves:,} moves", where=name,
+                 change="raise simplify_mm, or trace a smaller or cleaner picture")
 
 
 def contours_to_path(contours: Sequence[Contour], feed: float, start=(0.0, 0.0), name: str = "image") -> Path:
     """Pen up (rapid, tool up) to each contour's start, pen down along it; Z is 0 throughout."""
     if not feed > 0:
         raise PathError(f"feed must be > 0 mm/s, got {feed}")
+    _check_moves(contours, name)
     here = np.append(np.asarray(start, dtype=float)[:2], 0.0)
     segments = []
     for k, c in enumerate(contours, start=1):
@@ -293,7 +389,7 @@ def contours_to_path(contours: Sequence[Contour], feed: float, start=(0.0, 0.0),
         source = f"{name} contour {k}"
         if np.any(pts[0] != here):
             segments.append(Line(here, pts[0], feed=feed, rapid=True, tool_down=False, source=source))
-        segments.extend(Line(a, b, feed=feed, source=source) for a, b in zip(pts[:-1], pts[1:]))
+        segments.extend(Line.chain(pts, feed=feed, source=source))
         here = pts[-1]
     return Path(segments)
 

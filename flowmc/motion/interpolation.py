@@ -23,6 +23,7 @@ from typing import Literal
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.errors import PathError, PlanningError
 from flowmc.motion import nurbs, profiles, timediv
 from flowmc.motion.limits import PathLimits, segment_feed
@@ -89,10 +90,15 @@ def time_division(path: Path, machine: Machine, *, profile: Literal["trapezoid",
     check_joined(path)
     vmax, amax, jmax = PathLimits.of(machine).smallest()
     period = machine.period
-    chunks, worst_chord, worst_radial = [], 0.0, 0.0
+    chunks: list[np.ndarray] = []
+    worst_chord, worst_radial = 0.0, 0.0
     for i, seg in enumerate(path.segments):
         where = describe_segment(i, seg.source)
+        budget.check("setpoints", sum(len(c) for c in chunks), what=f"interpolating up to {where}",
+                     change="raise the feeds, shorten the program, or lengthen the machine's period")
         if isinstance(seg, Dwell):
+            budget.check("setpoints", seg.seconds / period, what=f"a dwell of {seg.seconds:g} s", where=where,
+                         change="shorten the dwell, or lengthen the machine's period")
             chunks.append(np.repeat(seg.start[None, :], max(math.ceil(seg.seconds / period - 1e-9), 0) + 1, 0))
             continue
         feed = min(segment_feed(seg, where), vmax)

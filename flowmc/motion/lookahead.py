@@ -28,6 +28,7 @@ from typing import Literal
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.errors import PlanningError
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
@@ -449,6 +450,10 @@ def _sample(pieces: Pieces, runs: _Runs, phases: _Phases, path: Path, machine: M
     run_dist = cum - seg_d - (cum[run_first] - seg_d[run_first])
     phases.s_start = runs.s0[phases.run] + run_dist
 
+    budget.check("setpoints", total / period + 1, axes=len(cols),
+                 what=f"planning {total:.6g} s of motion at a {period * 1e3:g} ms period",
+                 change="raise the feeds (a feed near 0 makes a move last for ever), shorten the program, "
+                        "or lengthen the machine's period")
     n = max(1, math.ceil(total / period - 1e-9))
     t = np.arange(n + 1) * period
     t[-1] = min(t[-1], total)

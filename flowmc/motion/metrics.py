@@ -14,6 +14,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
+import flowmc.budget as budget
 from flowmc.motion.limits import AxisLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
@@ -104,6 +105,8 @@ class _PolylineDistance:
         diff = np.diff(pts, axis=0)
         seg_len = np.linalg.norm(diff, axis=1)
         h = min(max(float(np.median(seg_len)) if len(seg_len) else 1.0, 1e-6), 0.5)
+        budget.check("points", float(np.sum(seg_len)) / h + len(seg_len), what="indexing the path for distances",
+                     change="sample the path more evenly")
         splits = np.maximum(1, np.ceil(seg_len / h)).astype(int)
         frac = np.concatenate([np.arange(n) / n for n in splits]) if len(splits) else np.zeros(0)
         self.owner = np.repeat(np.arange(len(seg_len)), splits)

@@ -14,6 +14,7 @@ import numpy as np
 from scipy.interpolate import BSpline, PPoly
 from scipy.ndimage import maximum_filter1d
 
+import flowmc.budget as budget
 from flowmc.errors import PathError, PlanningError
 
 __all__ = [
@@ -440,6 +441,9 @@ def taylor_steps(curve: Nurbs, feed: float, period: float, *, eps: float = 1e-3,
     exactly on the curve's end.
     """
     sched = schedule or feed_schedule(curve, feed, period, eps=eps, amax=amax, v_start=v_start, v_end=v_end)
+    budget.check("setpoints", sched.duration / period + 1,
+                 what=f"a NURBS curve of {sched.duration:.6g} s at a {period * 1e3:g} ms period",
+                 change="raise the feed, or lengthen the machine's period")
     tol = 1e-14 * (curve.u1 - curve.u0)
     us, feeds = [np.array([curve.u0])], []
     u_cur, t_cur, sweeps = curve.u0, 0.0, 0

@@ -16,6 +16,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.errors import PathError
 from flowmc.motion.values import array_digest, frozen_array
 
@@ -46,12 +47,17 @@ _SPIRAL_ABS = 0.002 * math.sqrt(2.0) * 25.4
 _SPIRAL_REL = 0.001
 
 
+MAX_COORD_MM = 1e9  # 1000 km: beyond any machine, and squares of it stay far from overflow
+
+
 def _vec3(value, name: str) -> np.ndarray:
     arr = np.asarray(value, dtype=float).reshape(-1)
     if arr.shape == (2,):
         arr = np.append(arr, 0.0)
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise PathError(f"{name} must be 2 or 3 finite numbers, got {value!r}")
+    if np.abs(arr).max() > MAX_COORD_MM:
+        raise PathError(f"{name} {arr.tolist()} is out of range: coordinates must be within +-{MAX_COORD_MM:g} mm")
     return frozen_array(arr)
 
 
@@ -77,7 +83,10 @@ def chord_count(length: float, min_radius: float, tol: float) -> int:
         step = max(math.sqrt(8.0 * min(min_radius, tol) * tol), 1e-6) if min_radius > 0 else length
     else:
         step = 2.0 * math.sqrt(2.0 * min_radius * tol - tol * tol)
-    return max(1, math.ceil(length / max(step, 1e-12)))
+    count = length / max(step, 1e-12)
+    budget.check("points", count, what=f"sampling {length:.6g} mm of curve within {tol:g} mm",
+                 change="loosen the chord tolerance, or make the curve shorter (fewer turns)")
+    return max(1, math.ceil(count))
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -156,6 +165,22 @@ class Line(Segment):
         for key, value in {**_defaults(), **state}.items():
             object.__setattr__(self, key, value)
 
+    @classmethod
+    def chain(cls, points, **state) -> list["Line"]:
+        """Lines through ``points`` (N, 3), all with the same state: checked once, built without the
+        per-line checks (a traced picture has hundreds of thousands)."""
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
+            raise PathError(f"line points must be finite (N, 3), got shape {pts.shape}", where=state.get("source"))
+        rows = [frozen_array(p) for p in pts]
+        fields = {**_defaults(), **state}
+        out = []
+        for a, b in zip(rows[:-1], rows[1:]):
+            line = object.__new__(cls)
+            line.__dict__.update(fields, start=a, end=b)
+            out.append(line)
+        return out
+
     @cached_property
     def length(self) -> float:
         return float(np.linalg.norm(self.end - self.start))
@@ -200,6 +225,8 @@ class Arc(Segment):
     def __init__(self, start, end, center, normal_axis: int = 2, ccw: bool = True, turns: int = 0, **state):
         if normal_axis not in PLANES:
             raise PathError(f"arc normal axis must be 0, 1 or 2, got {normal_axis!r}", where=state.get("source"))
+        budget.check("turns", turns, what="an arc", change="give the arc fewer turns (G-code P, the row's angles)",
+                     where=state.get("source") or None)
         if int(turns) < 0:
             raise PathError(f"arc extra turns must be >= 0, got {turns}", where=state.get("source"))
         object.__setattr__(self, "start", _vec3(start, "arc start"))
@@ -684,9 +711,12 @@ class Path:
         if not self.segments:
             return np.zeros((0, 3)), np.zeros(0, dtype=int)
         chunks, index = [], []
-        last = None
+        last, total = None, 0
         for i, seg in enumerate(self.segments):
             pts = seg.sample(tol)
+            total += len(pts)
+            budget.check("points", total, what=f"sampling a path of {len(self.segments)} segments within {tol:g} mm",
+                         change="loosen the chord tolerance, or split the program")
             if last is not None and np.allclose(pts[0], last, rtol=0.0, atol=1e-9):
                 pts = pts[1:]
             if len(pts):

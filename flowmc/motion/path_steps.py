@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.errors import PathError
 from flowmc.motion import stepinterp
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, Path, describe_segment
@@ -173,12 +174,16 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
         raise PathError("the path is empty")
     origin = _grid(path.start, step)
     cur = origin
-    blocks, labels = [], []
+    blocks: list[np.ndarray] = []
+    labels: list[np.ndarray] = []
     for i, seg in enumerate(path):
         try:
             streams = _segment_streams(seg, cur, step, tol, interp)
         except PathError as exc:
             raise PathError(exc.message, where=describe_segment(i, seg.source)) from None
+        budget.check("steps", sum(len(b) for b in blocks) + sum(len(st.steps) for st in streams), axes=2,
+                     what=f"stepping up to {describe_segment(i, seg.source)}",
+                     change="use a coarser step, or split the program")
         for st in streams:
             blocks.append(st.steps)
             labels.append(np.full(len(st.steps), i, dtype=np.int64))

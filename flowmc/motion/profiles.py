@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+import flowmc.budget as budget
 from flowmc.errors import PlanningError
 
 __all__ = ["Profile", "plan_trapezoid", "plan_exponential", "plan_scurve", "sample_profile"]
@@ -92,6 +93,9 @@ def sample_profile(profile: Profile, period: float) -> np.ndarray:
     (the last period is partial when the duration is not a whole number of periods)."""
     if not period > 0:
         raise PlanningError(f"period must be > 0, got {period}", where=_WHERE)
+    budget.check("setpoints", profile.duration / period + 1,
+                 what=f"a move of {profile.duration:.6g} s at a {period * 1e3:g} ms period",
+                 change="raise the feed, shorten the move, or lengthen the machine's period")
     n = max(int(math.ceil(profile.duration / period - 1e-9)), 0)
     s = profile.sample(np.arange(n + 1) * period)[0]
     s[-1] = profile.length

@@ -15,6 +15,7 @@ from typing import Annotated, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+import flowmc.budget as budget
 from flowmc.errors import PathError
 from flowmc.motion.path import Arc, EllipseArc, Line, Path, Segment
 
@@ -66,6 +67,8 @@ Row = Annotated[Union[LineRow, ArcRow, EllipseRow], Field(discriminator="type")]
 
 def _check_direction(row, where: str) -> float:
     sweep = row.end_angle - row.start_angle
+    budget.check("turns", abs(sweep) / 360.0, what=f"sweeping {row.start_angle:g} to {row.end_angle:g} deg",
+                 change="give the row angles fewer turns apart", where=where)
     if sweep == 0:
         raise PathError("start_angle equals end_angle: the arc sweeps nothing", where=where)
     if (sweep > 0) != (row.direction == "ccw"):
@@ -104,6 +107,8 @@ def path_from_rows(rows, start=(0.0, 0.0, 0.0), feed: float = 100.0) -> Path:
     """
     from pydantic import TypeAdapter, ValidationError
 
+    budget.check("rows", len(rows), what=f"a table of {len(rows):,} rows",
+                 change="split the table, or read long programs from a G-code file")
     adapter = TypeAdapter(Row)
     current = np.asarray(start, dtype=float).reshape(3)
     segments: list[Segment] = []

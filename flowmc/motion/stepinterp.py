@@ -49,6 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.errors import PathError
 
 __all__ = [
@@ -126,6 +127,7 @@ def _check_ticks(n: int, what: str) -> None:
     if n > MAX_TICKS:
         raise PathError(f"{what} needs at least {n} ticks, more than the {MAX_TICKS} one stream may hold; "
                         f"use a coarser step or split the segment")
+    budget.check("steps", n, axes=2, what=what, change="use a coarser step or split the segment")
 
 
 # ----------------------------------------------------------------------------------------------

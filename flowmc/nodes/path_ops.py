@@ -6,7 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from flowmc.errors import PathError
+from flowmc.errors import BudgetError, PathError
 from flowmc.motion.contour import DEFAULT_METHOD, image_to_path
 from flowmc.motion.offset import offset_path
 from flowmc.motion.path import Path
@@ -63,8 +63,8 @@ class ImageContour(NodeType):
             path = image_to_path(file, params.method, params.threshold, params.invert, params.mm_per_pixel,
                                  params.width_mm, params.height_mm, (params.origin_x, params.origin_y),
                                  params.feed, params.simplify_mm)
-        except PathError as exc:
-            raise PathError(exc.message, where=params.file if exc.where == str(file) else exc.where) from None
+        except (PathError, BudgetError) as exc:
+            raise type(exc)(exc.message, where=params.file if exc.where == str(file) else exc.where) from None
         ctx.log(f"{sum(s.rapid for s in path)} outlines, {len(path)} moves")
         return {"path": path}
 

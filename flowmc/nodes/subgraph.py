@@ -17,8 +17,10 @@ from typing import Any, Callable, Iterable
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+import flowmc.budget as budget
 from flowmc.errors import GraphError, NodeError
-from flowmc.graph import Graph, Issue, dumps, load
+from flowmc.fileio import fingerprint, read_text
+from flowmc.graph import Graph, Issue, dumps, loads
 from flowmc.ports import REQUIRED, In, Out, Ports
 from flowmc.registry import NodeType, NoParams, Registry, register
 from flowmc.runtime.binding import BindContext, Binding
@@ -47,13 +49,19 @@ def interface_ports(graph: Graph, plan: Plan | None = None) -> Ports:
     return Ports(tuple(inputs), outputs)
 
 
-def _stat(path: Path) -> tuple[int, int]:
-    st = path.stat()
-    return st.st_mtime_ns, st.st_size
+def _read(path: Path) -> tuple[Graph, str]:
+    """The graph at ``path`` and a hash of the file's content (what tells a changed file)."""
+    text = read_text(path, limit=budget.cap("json_bytes"), what="graph file", error=GraphError)
+    graph = loads(text, where=str(path))
+    graph.path = path
+    return graph, hashlib.blake2b(text.encode("utf-8", "surrogatepass"), digest_size=16).hexdigest()
 
 
-def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph, Site], Plan]) -> Binding:
-    """Load, check and plan the sub-graph at ``path`` (already inside the root). GraphError with issues."""
+def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph, Site], Plan],
+              memo: dict[Any, Any] | None = None) -> Binding:
+    """Load, check and plan the sub-graph at ``path`` (already inside the root). GraphError with issues.
+    ``memo`` (one planning pass) holds what each file came to, so a file used many times, however
+    deep, is read and planned once: fan-out stays linear."""
     loc = ("nodes", node_id, "params", "file")
     shown = site.name(path)
 
@@ -63,25 +71,38 @@ def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph,
     if path in site.chain:
         names = " -> ".join(site.name(p) for p in site.chain + (path,))
         raise fail("subgraph-recursion", f"sub-graph recursion: {names}")
+    key = ("subgraph", path, site.root)
+    outcome = memo.get(key) if memo is not None else None
+    if outcome is None:
+        outcome = _bind_outcome(path, site, shown, plan_graph)
+        if memo is not None:
+            memo[key] = outcome
+    if isinstance(outcome, tuple):  # (code, message) or (code, [issue messages])
+        code, detail = outcome
+        if isinstance(detail, str):
+            raise fail(code, detail)
+        issues = [Issue(c, loc, f"node {node_id!r}: sub-graph {shown}: {m}") for c, m in detail]
+        raise GraphError(issues[0].message, issues=issues)
+    return outcome
+
+
+def _bind_outcome(path: Path, site: Site, shown: str, plan_graph: Callable[[Graph, Site], Plan]) -> Any:
+    """The Binding of the file at ``path``, or why it cannot be bound (not yet naming the node)."""
     try:
-        graph = load(path)
+        graph, digest = _read(path)
     except GraphError as exc:
         detail = "; ".join(i.message for i in exc.issues) if exc.issues else exc.message
-        raise fail("subgraph", f"sub-graph {shown}: {detail}") from None
+        return ("subgraph", f"sub-graph {shown}: {detail}")
     if graph.interface is None:
-        raise fail("subgraph", f"sub-graph {shown} declares no interface, so it cannot be used as a node")
+        return ("subgraph", f"sub-graph {shown} declares no interface, so it cannot be used as a node")
     plan = plan_graph(graph, Site(path.parent, site.root, site.chain + (path,)))
     if plan.issues:
-        issues = [
-            Issue(i.code if i.code == "subgraph-recursion" else "subgraph", loc,
-                  f"node {node_id!r}: sub-graph {shown}: {i.message}")
-            for i in plan.issues
-        ]
-        raise GraphError(issues[0].message, issues=issues)
+        return ("subgraph", [(i.code if i.code in ("subgraph-recursion", "budget") else "subgraph", i.message)
+                             for i in plan.issues])
     h = hashlib.blake2b(dumps(graph).encode(), digest_size=16)
     for node_id_inner in plan.order:
         h.update(plan.nodes[node_id_inner].static)
-    deps = {path: _stat(path), **plan.deps}
+    deps = {path: digest, **plan.deps}
     return Binding(interface_ports(graph, plan), plan.pure, h.hexdigest(), plan, deps)
 
 
@@ -114,7 +135,7 @@ class Subgraph(NodeType):
         except GraphError as exc:
             issue = Issue("path-escape", ("nodes", at.node_id, "params", "file"), f"node {at.node_id!r}: file {exc.message}")
             raise GraphError(issue.message, issues=[issue]) from None
-        return bind_file(path, at.site, at.node_id, at.plan)
+        return bind_file(path, at.site, at.node_id, at.plan, at.memo)
 
     def run(self, ctx: Any, params: SubgraphParams, **inputs: Any) -> dict[str, Any]:
         return _run_bound(ctx, inputs, params.file)
@@ -135,7 +156,7 @@ class LibraryGraph(NodeType):
 
     @classmethod
     def bind_graph(cls, params: BaseModel, at: BindContext) -> Binding:
-        binding = bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, at.site.chain), at.node_id, at.plan)
+        binding = bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, at.site.chain), at.node_id, at.plan, at.memo)
         data = tuple(p for p in binding.ports.inputs if p.name not in cls.Params.model_fields)
         return replace(binding, ports=Ports(data, binding.ports.outputs))
 
@@ -168,7 +189,7 @@ class GraphLibrary:
 
     def __init__(self, folders: Iterable[Path] = ()) -> None:
         self.folders = [Path(f).resolve() for f in folders]
-        self._cache: dict[Path, tuple[int, tuple[int, int], type[LibraryGraph]]] = {}  # path -> (generation, stat, type)
+        self._cache: dict[Path, tuple[int, str | None, type[LibraryGraph]]] = {}  # path -> (generation, content hash, type)
         self._building: set[Path] = set()
 
     def _dirs(self, graph_dir: Path | None) -> list[Path]:
@@ -185,7 +206,7 @@ class GraphLibrary:
 
     def _class(self, path: Path, lib_dir: Path, registry: Registry) -> type[LibraryGraph]:
         """The ``lib.<stem>`` type for a file, rebuilt when the file or the registry changes."""
-        stat = _stat(path)
+        stat = fingerprint(path, budget.cap("json_bytes"))
         cached = self._cache.get(path)
         if cached is not None and cached[:2] == (registry.generation, stat):
             return cached[2]
@@ -195,7 +216,7 @@ class GraphLibrary:
         building = path in self._building  # library graphs using each other: binding reports the recursion
         self._building.add(path)
         try:
-            graph = load(path)
+            graph, _ = _read(path)
             title = graph.title or stem
             description = (graph.description.strip().splitlines() or [description])[0]
             if not building:

@@ -9,7 +9,7 @@ protocol, never the classes that implement it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Protocol, runtime_checkable
 
@@ -27,7 +27,7 @@ class Binding:
     pure: bool
     key: str  # content of the bound graph (and of what it binds): part of the node's cache key
     plan: Any  # the inner Plan, handed to the node at run time as ctx.binding
-    deps: dict[Path, tuple[int, int]]  # files read and their (mtime_ns, size): re-plan when one changes
+    deps: dict[Path, str | None]  # files read and a hash of their content: re-plan when one changes
 
 
 @dataclass(frozen=True)
@@ -37,6 +37,7 @@ class BindContext:
     site: Site
     node_id: str
     plan: Callable[[Any, Site], Any]  # plan(graph, site) -> Plan, with the outer plan's registry
+    memo: dict[Any, Any] = field(default_factory=dict)  # one planning pass's shared work (a file bound once)
 
 
 @runtime_checkable

@@ -13,6 +13,8 @@ from typing import Any
 
 import networkx as nx
 
+import flowmc.budget as budget
+from flowmc.fileio import fingerprint
 from flowmc.graph import Graph, Issue
 from flowmc.ports import In, Out
 from flowmc.registry import Registry
@@ -35,7 +37,8 @@ class Plan:
     generations: list[list[str]]
     iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]]
     iface_outputs: dict[str, tuple[Any, tuple[str, str]]]
-    deps: dict[Path, tuple[int, int]] = field(default_factory=dict)  # files read (sub-graphs) and their stat
+    deps: dict[Path, str | None] = field(default_factory=dict)  # files read (sub-graphs) and their content hash
+    size: int = 0  # nodes the graph expands to: its own, and those of the graphs they hold, in turn
 
     @property
     def ok(self) -> bool:
@@ -58,15 +61,7 @@ class Plan:
         return nx.descendants(self.digraph, node_id)
 
     def deps_unchanged(self) -> bool:
-        return all(_stat(path) == stat for path, stat in self.deps.items())
-
-
-def _stat(path: Path) -> tuple[int, int] | None:
-    try:
-        st = path.stat()
-    except OSError:
-        return None
-    return st.st_mtime_ns, st.st_size
+        return all(fingerprint(path) == digest for path, digest in self.deps.items())
 
 
 def find_cycles(digraph: nx.DiGraph) -> list[list[str]]:
@@ -86,9 +81,12 @@ def find_cycles(digraph: nx.DiGraph) -> list[list[str]]:
     return sorted(cycles, key=lambda ids: ids[0])
 
 
-def make_plan(graph: Graph, site: Site, registry: Registry) -> Plan:
-    """Validate ``graph`` against ``registry`` and order it; graphs that nodes hold are planned the same way."""
-    checked = check_graph(graph, site, registry, lambda inner, inner_site: make_plan(inner, inner_site, registry))
+def make_plan(graph: Graph, site: Site, registry: Registry, memo: dict[Any, Any] | None = None) -> Plan:
+    """Validate ``graph`` against ``registry`` and order it; graphs that nodes hold are planned the same way,
+    each file once per planning pass (``memo``), so a file used many times costs no more than once."""
+    memo = {} if memo is None else memo
+    checked = check_graph(graph, site, registry, lambda inner, inner_site: make_plan(inner, inner_site, registry, memo),
+                          memo)
     digraph = nx.DiGraph()
     digraph.add_nodes_from(checked.node_ids)
     digraph.add_edges_from(sorted(set(checked.edges)))
@@ -100,5 +98,11 @@ def make_plan(graph: Graph, site: Site, registry: Registry) -> Plan:
         for ids in find_cycles(digraph):
             text = " -> ".join(ids + ids[:1])
             issues.append(Issue("cycle", ("nodes", ids[0]), f"node {ids[0]!r}: cycle {text}"))
+    size = len(checked.node_ids) + sum(n.binding.size for n in checked.nodes.values() if isinstance(n.binding, Plan))
+    limit = budget.cap("expansion")
+    if size > limit:
+        issues.append(Issue("budget", (), f"the graph expands to {size:,} nodes through its sub-graphs, over the "
+                                          f"budget of {limit:,}: use a sub-graph fewer times, or raise the limit "
+                                          "(FLOWMC_BUDGET_EXPANSION)"))
     return Plan(graph, site, registry, issues, checked.nodes, digraph, generations,
-                checked.iface_inputs, checked.iface_outputs, checked.deps)
+                checked.iface_inputs, checked.iface_outputs, checked.deps, size)

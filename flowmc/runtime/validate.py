@@ -20,6 +20,7 @@ from typing import Any, Callable
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
+import flowmc.budget as budget
 from flowmc.errors import GraphError
 from flowmc.graph import Graph, Issue, Node, split_ref
 from flowmc.ports import SCALAR_PORT_TYPES, In, Out, Ports
@@ -67,18 +68,21 @@ class Checked:
     edges: list[tuple[str, str]]
     iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]]
     iface_outputs: dict[str, tuple[Any, tuple[str, str]]]
-    deps: dict[Path, tuple[int, int]]
+    deps: dict[Path, str | None]
 
 
-def check_graph(graph: Graph, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any]) -> Checked:
-    """Every problem of ``graph`` with its node types from ``registry``; ``plan`` plans held graphs."""
+def check_graph(graph: Graph, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any],
+                memo: dict[Any, Any] | None = None) -> Checked:
+    """Every problem of ``graph`` with its node types from ``registry``; ``plan`` plans held graphs
+    (``memo``: what binding held graphs already did in this planning pass)."""
     issues: list[Issue] = []
     nodes = _unique_nodes(graph, issues)
     targets = _targets_by_node(graph)
-    deps: dict[Path, tuple[int, int]] = {}
+    deps: dict[Path, str | None] = {}
     bound: dict[str, BoundNode] = {}
+    memo = {} if memo is None else memo
     for node in nodes.values():
-        b = _bind_node(node, site, registry, plan, targets.get(node.id, set()), issues, deps)
+        b = _bind_node(node, site, registry, plan, targets.get(node.id, set()), issues, deps, memo)
         if b is not None:
             bound[node.id] = b
     edges, fed_by = _check_wires(graph, nodes, bound, issues)
@@ -114,7 +118,7 @@ def _targets_by_node(graph: Graph) -> dict[str, set[str]]:
 # ---------------------------------------------------------------- nodes
 
 def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any],
-               fed_ports: set[str], issues: list[Issue], deps: dict) -> BoundNode | None:
+               fed_ports: set[str], issues: list[Issue], deps: dict, memo: dict) -> BoundNode | None:
     try:
         cls = registry.lookup(node.type, site.graph_dir)
     except GraphError:
@@ -129,7 +133,7 @@ def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph
     binding, pure, extra = None, cls.pure, ""
     if binder is not None:
         try:
-            bound = binder.bind_graph(params, BindContext(site, node.id, plan))
+            bound = binder.bind_graph(params, BindContext(site, node.id, plan, memo))
         except GraphError as exc:
             issues.extend(exc.issues or [Issue("subgraph", ("nodes", node.id, "params"), f"node {node.id!r}: {exc}")])
             return None
@@ -153,6 +157,13 @@ def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph
 
 def _validate_params(node: Node, cls: type[NodeType], fed_ports: set[str]) -> tuple[BaseModel | None, list[Issue]]:
     """Validated params, or None with the issues. Errors on params fed by a wire are left to run time."""
+    limit = budget.cap("rows")
+    for name, value in node.params.items():
+        if isinstance(value, list) and len(value) > limit:  # refused before pydantic builds a model per item
+            return None, [Issue("budget", ("nodes", node.id, "params", name),
+                                f"node {node.id!r}: param {name!r} has {len(value):,} items, over the budget of "
+                                f"{limit:,}: split it over several nodes, keep long programs in G-code files, "
+                                "or raise the memory budget (flowmc run --memory-mb, FLOWMC_MEMORY_MB)")]
     try:
         return cls.Params.model_validate(node.params), []
     except ValidationError as exc:

@@ -18,7 +18,8 @@ import os
 import signal
 import threading
 import uuid
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 from flowmc.errors import FlowmcError
 from flowmc.sweep.variants import Variant
@@ -66,7 +67,7 @@ def _init_process(job: Job, ready: Any) -> None:
 
 def _started() -> None:
     """A task that returns once its process (and so, past the barrier, every process) has started."""
-    return None
+    return
 
 
 def _run_local(batch: list[Variant]) -> list[dict[str, Any]]:
@@ -114,7 +115,7 @@ class LocalExecutor:
             future.cancel()
         self._pool.shutdown(wait=True, cancel_futures=True)
 
-    def __enter__(self) -> "LocalExecutor":
+    def __enter__(self) -> LocalExecutor:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -190,7 +191,7 @@ class DaskExecutor:
             hosts.setdefault(w["host"], []).append(addr)
             if w.get("resources", {}).get(resource):
                 holders.add(w["host"])
-        chosen = [sorted(addrs)[0] for host, addrs in hosts.items() if host not in holders]
+        chosen = [min(addrs) for host, addrs in hosts.items() if host not in holders]
         if chosen:
             self.client.run(_grant, resource, workers=chosen)
 
@@ -222,7 +223,7 @@ class DaskExecutor:
             if self.cluster is not None:
                 self.cluster.close()
 
-    def __enter__(self) -> "DaskExecutor":
+    def __enter__(self) -> DaskExecutor:
         return self
 
     def __exit__(self, *exc: Any) -> None:

@@ -18,8 +18,9 @@ import json
 import math
 import os
 import uuid
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from flowmc.errors import FlowmcError
 from flowmc.settings import UsageError

@@ -17,8 +17,9 @@ types that declare it in ``host_resources`` (the LinuxCNC comparison).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, Iterable
+from typing import Any
 
 from flowmc.settings import UsageError
 

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, dumps
@@ -98,8 +99,7 @@ class Sweep:
         return self.safety.resources
 
     def run(self, executor: Any, journal: Journal, *, on_progress: Callable[[Progress], Any] | None = None,
-            on_rows: Callable[[list[dict[str, Any]]], Any] | None = None, stop: threading.Event | None = None,
-            size: int | None = None) -> Outcome:
+            stop: threading.Event | None = None, size: int | None = None) -> Outcome:
         """Run the variants ``journal`` does not hold yet on ``executor``; Ctrl-C (or ``stop``) ends it cleanly."""
         finished = journal.finished
         todo = [v for v in self.variants if v.key not in finished]
@@ -125,8 +125,6 @@ class Sweep:
                 done += sum(r["status"] == "done" for r in rows)
                 failed += sum(r["status"] == "failed" for r in rows)
                 lost += sum(r["status"] == "lost" for r in rows)
-                if on_rows is not None:
-                    on_rows(rows)
                 report()
                 if stop is not None and stop.is_set():
                     interrupted = True

@@ -17,9 +17,10 @@ import itertools
 import json
 import math
 import os
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from flowmc.settings import Target, UsageError, target
 
@@ -68,7 +69,7 @@ def _numbers(text: str, what: str) -> list[float | int]:
         raise UsageError(f"{what}: {text!r} is not a range of numbers") from None
     if not all(math.isfinite(v) for v in (start, stop, step)) or step == 0 or (stop - start) * step < 0:
         raise UsageError(f"{what}: the range {text!r} never reaches its stop")
-    count = int(math.floor((stop - start) / step + 1e-9)) + 1
+    count = math.floor((stop - start) / step + 1e-9) + 1
     if count > MAX_VARIANTS:
         raise UsageError(f"{what}: the range {text!r} has {count} values (at most {MAX_VARIANTS})")
     whole = all(v.is_integer() for v in (start, stop, step)) and "." not in text and "e" not in text.lower()

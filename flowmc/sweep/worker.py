@@ -47,13 +47,14 @@ class Job:
     node_folders: tuple[str, ...] = ()
     shipped: bytes | None = field(default=None, repr=False)
 
-    @property
-    def key(self) -> str:
+    key: str = field(init=False, repr=False)  # names the job's runtime on a worker
+
+    def __post_init__(self) -> None:
         h = hashlib.blake2b(self.graph_json.encode(), digest_size=12)
         h.update(f"\0{self.folder}\0{self.graph_name}\0{self.to_sim}\0{self.node_folders}".encode())
         if self.shipped is not None:
             h.update(hashlib.blake2b(self.shipped, digest_size=12).digest())
-        return h.hexdigest()
+        object.__setattr__(self, "key", h.hexdigest())
 
 
 def pack_folder(folder: Path, skip: tuple[Path, ...] = ()) -> bytes:
@@ -170,7 +171,7 @@ def run_variant(job: Job, loaded: _Loaded, variant: Variant) -> dict[str, Any]:
         for name in job.to_sim:
             job.targets[name].apply(graph, "sim", inputs)
         result = loaded.runtime.run(graph, inputs)
-    except Exception as exc:  # an invalid variant, or a bug: still one row, never a dead worker
+    except Exception as exc:  # noqa: BLE001 - an invalid variant, or a bug: still one row, never a dead worker
         row.update(status="failed", error=_message(exc), outputs={}, ran=0, cached=0)
     else:
         if loaded.loose:

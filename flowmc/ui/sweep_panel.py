@@ -35,31 +35,33 @@ def _fmt(value: float) -> str:
 
 
 def suggested_values(spec: ControlSpec) -> str:
-    """Values to start from: five across a slider's range, the choices of a dropdown, both of a checkbox."""
+    """Values to start from: a dropdown's choices, both states of a checkbox, a small whole-number range in
+    full, else half, once and twice the control's value (within its bounds; across its range from 0)."""
     if spec.kind == "dropdown":
         return ", ".join(spec.options)
     if spec.kind == "checkbox":
         return "true, false"
     if spec.kind == "text":
         return str(spec.initial)
-    if spec.kind == "slider" and spec.low is not None and spec.high is not None:
-        step = spec.step or 0.0
-        low = spec.low + (step if spec.low_open else 0.0)
-        high = spec.high - (step if spec.high_open else 0.0)
-        values = [low + (high - low) * k / 4 for k in range(5)]
-        if spec.integer:
-            values = sorted({round(v) for v in values})
-        return ", ".join(_fmt(v) for v in values)
+    low = None if spec.low is None else spec.low + ((spec.step or 0.0) if spec.low_open else 0.0)
+    high = None if spec.high is None else spec.high - ((spec.step or 0.0) if spec.high_open else 0.0)
+    if spec.integer and low is not None and high is not None and high - low <= 5:
+        return ", ".join(str(v) for v in range(math.ceil(low), math.floor(high) + 1))
     value = float(spec.initial or 0.0)
     if value == 0.0 or not math.isfinite(value):
-        return "0, 1"
-    return ", ".join(_fmt(value * f) for f in (0.5, 1.0, 2.0))
+        if low is None or high is None:
+            return "0, 1"
+        values = [low + (high - low) * k / 4 for k in range(5)]
+    else:
+        values = [value * f for f in (0.5, 1.0, 2.0)]
+    inside = sorted({v for v in values if spec.problem(v) is None})
+    return ", ".join(str(round(v)) if spec.integer else _fmt(v) for v in inside)
 
 
 class SweepPanel:
     """Built in the container current when it is made (the editor's Sweep tab)."""
 
-    def __init__(self, host: "PanelHost"):
+    def __init__(self, host: PanelHost):
         self.host = host
         gui = host.gui
         self.session = host.session
@@ -214,7 +216,7 @@ class SweepPanel:
         failed = next((r for r in outcome.rows if r["status"] != "done"), None)
         summary = (("Stopped: " if outcome.interrupted else "") + f"{outcome.done} done, {outcome.failed} failed"
                    + (f", {outcome.left} not run" if outcome.left else "") + f" in {outcome.elapsed:.1f} s.")
-        choice = choose(outcome.columns, outcome.rows, self.sweep.params, outputs=None, against=self.swept)
+        choice = choose(outcome.columns, outcome.rows, self.sweep.params, outputs=None, against=self._against())
         write_report(self.folder / "report.html", title=f"Sweep of {self.session.state.graph.title or 'the graph'}",
                      summary=[summary], choice=choice, rows=outcome.rows, params=self.sweep.params)
         self.status.content = (md("{} Rows and report: {}", summary, self.folder)
@@ -222,6 +224,11 @@ class SweepPanel:
                                   if failed else ""))
         self.progress.visible = False
         self.replot()
+
+    def _against(self) -> list[str]:
+        """The swept controls to plot against: numeric ones first (a line over a range reads best)."""
+        rows = self.outcome.rows
+        return sorted(self.swept, key=lambda name: not all(isinstance(r.get(name), (int, float)) for r in rows))
 
     def replot(self) -> None:
         """Draw the chosen output against the swept controls (and the Pareto front) from the last sweep."""
@@ -233,7 +240,7 @@ class SweepPanel:
         pareto = [self.output.value, self.pareto.value] if self.pareto.value != _NONE else None
         try:
             choice = choose(outcome.columns, outcome.rows, self.sweep.params, outputs=[self.output.value],
-                            against=self.swept, pareto=pareto)
+                            against=self._against(), pareto=pareto)
         except FlowmcError as exc:
             self.status.content = md("**Cannot plot:** {}", exc)
             return

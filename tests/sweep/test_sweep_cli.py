@@ -72,7 +72,7 @@ def test_ctrl_c_keeps_the_rows_done_and_resume_finishes(tmp_path, executor):
     while time.monotonic() < deadline and len(journal(out) if (out / "rows.jsonl").exists() else []) < 10:
         time.sleep(0.05)
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C at a terminal reaches the whole process group
-    stdout, stderr = proc.communicate(timeout=120)
+    _stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130, stderr
     assert "interrupted:" in stderr and "--resume" in stderr and "Traceback" not in stderr
     kept = journal(out)
@@ -88,3 +88,28 @@ def test_ctrl_c_keeps_the_rows_done_and_resume_finishes(tmp_path, executor):
     assert [int(r["variant"]) for r in table] == list(range(100))
     failed = any(r["status"] != "done" for r in table)
     assert resumed.returncode == (1 if failed else 0), resumed.stderr
+
+
+def test_a_worker_that_dies_leaves_lost_rows_that_resume_runs_again(tmp_path):
+    import psutil
+
+    out = tmp_path / "out"
+    args = ["sweep", str(ARM), "--grid", "lookahead.tolerance=0.002:0.1:0.002", "--grid", "rule=blend,junction_deviation",
+            "--workers", "2", "--batch", "2", "--out", str(out)]
+    proc = subprocess.Popen([sys.executable, "-m", "flowmc", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(journal(out) if (out / "rows.jsonl").exists() else []) < 6:
+        time.sleep(0.05)
+    workers = [p for p in psutil.Process(proc.pid).children(recursive=True) if "spawn_main" in " ".join(p.cmdline())]
+    assert workers
+    workers[0].kill()  # a worker process dies mid-sweep
+    _stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 1 and "Traceback" not in stderr
+    table = read_csv(out / "rows.csv")
+    lost = [r for r in table if r["status"] == "lost"]
+    assert lost and "the worker running it was lost" in lost[0]["error"]
+    resumed = run_cli(*args, "--resume")
+    assert resumed.returncode in (0, 1), resumed.stderr
+    table = read_csv(out / "rows.csv")
+    assert len(table) == 100 and not [r for r in table if r["status"] == "lost"]

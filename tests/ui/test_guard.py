@@ -19,7 +19,7 @@ import viser
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
-from browser_helpers import chromium
+from browser_helpers import chromium, wait_until
 from editor_graphs import example_file
 from flowmc.ui.app import Editor
 from flowmc.ui.guard import Guard
@@ -170,14 +170,14 @@ def test_a_page_from_another_origin_in_the_same_browser_cannot_connect(editor):
             page = context.new_page()
             page.goto(editor.url)  # the editor's own page: sets the cookie, and connects
             page.wait_for_function("window.__viserMutable?.nodeRefFromName?.['/canvas/body'] != null", timeout=30_000)
-            clients_before = len(editor.server.get_clients())
+            wait_until(lambda: len(editor.server.get_clients()) == 1, what="the editor's own page to connect")
             for evil_host in ("127.0.0.1", "localhost"):
                 other = context.new_page()
                 other.goto(f"http://{evil_host}:{evil.server_address[1]}/")
                 other.wait_for_function("window.result !== 'pending'", timeout=15_000)
                 assert other.evaluate("window.result") == "refused", evil_host
             time.sleep(0.3)
-            assert len(editor.server.get_clients()) == clients_before == 1
+            assert len(editor.server.get_clients()) == 1
     finally:
         evil.shutdown()
 

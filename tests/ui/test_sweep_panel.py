@@ -40,8 +40,12 @@ def tol_editor(tmp_path):
 
 
 def test_suggested_values_come_from_the_control():
-    assert suggested_values(ControlSpec("f", "slider", 5.0, "Number", 0.0, 10.0, step=0.05)) == "0, 2.5, 5, 7.5, 10"
+    assert suggested_values(ControlSpec("f", "slider", 0.05, "Number", 0.0, 10.0, low_open=True, step=0.05)) \
+        == "0.025, 0.05, 0.1"
+    assert suggested_values(ControlSpec("f", "slider", 8.0, "Number", 0.0, 10.0, step=0.05)) == "4, 8"
+    assert suggested_values(ControlSpec("f", "slider", 0.0, "Number", 0.0, 10.0, step=0.05)) == "0, 2.5, 5, 7.5, 10"
     assert suggested_values(ControlSpec("n", "slider", 2, "Number", 1.0, 3.0, integer=True, step=1)) == "1, 2, 3"
+    assert suggested_values(ControlSpec("n", "slider", 20, "Number", 1.0, 100.0, integer=True, step=1)) == "10, 20, 40"
     assert suggested_values(ControlSpec("r", "number", 4.0, "Number")) == "2, 4, 8"
     assert suggested_values(ControlSpec("m", "dropdown", "a", "Text", options=("a", "b"))) == "a, b"
     assert suggested_values(ControlSpec("on", "checkbox", True, "Bool")) == "true, false"
@@ -59,7 +63,8 @@ def test_a_sweep_of_a_front_panel_control_runs_and_plots(editor, tmp_path):
     assert progress[-1].left == 0 and progress[-1].done == 2
     shown = unescape_md(panel.status.content)
     assert "2 done, 1 failed" in shown and "First failure, variant 1: node 'check': check failed" in shown
-    rows = list(csv.DictReader(open(tmp_path / "arm_lookahead-sweep" / "rows.csv")))
+    with open(tmp_path / "arm_lookahead-sweep" / "rows.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
     assert [r["rule"] for r in rows] == ["blend", "arm_weighted", "junction_deviation"]
     assert (tmp_path / "arm_lookahead-sweep" / "report.html").exists()
     assert "metrics.contour_error" in panel.output.options  # table outputs can be plotted after the sweep

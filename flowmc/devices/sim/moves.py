@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+import flowmc.budget as budget
+
 __all__ = ["line_move", "ramp"]
 
 
@@ -33,6 +35,8 @@ def line_move(start, end, vmax, amax, period: float, speed: float | None = None)
         t_acc = math.sqrt(length / a)
         v = a * t_acc
     t_total = 2 * t_acc + (length - a * t_acc * t_acc) / v
+    budget.check("setpoints", t_total / period + 1, axes=len(delta), what=f"a move of {t_total:.6g} s",
+                 change="move a shorter distance or faster")
     rows = max(math.ceil(t_total / period - 1e-9), 1)
     t = np.arange(rows + 1) * (t_total / rows)  # stretched onto whole periods
     s = np.where(t < t_acc, 0.5 * a * t * t,
@@ -47,6 +51,8 @@ def ramp(start: float, direction: int, speed: float, distance: float, period: fl
     Homing moves at a set speed without ramps (the thesis's V1 and V2, slow enough for a stepper
     to start and stop at once).
     """
+    budget.check("setpoints", distance / (speed * period) + 1, axes=1,
+                 what=f"{distance:g} mm at {speed:g} mm/s", change="move a shorter distance or faster")
     rows = max(math.ceil(distance / (speed * period) - 1e-9), 1)
     travel = np.minimum(np.arange(rows + 1) * speed * period, distance)
     return start + direction * travel

@@ -16,7 +16,9 @@ import gc
 
 import numpy as np
 
-from flowmc.motion.path import Arc, Dwell, Line, NurbsCurve, PathEvent
+import flowmc.budget as budget
+from flowmc.errors import GcodeError
+from flowmc.motion.path import MAX_COORD_MM, Arc, Dwell, Line, NurbsCurve, PathEvent
 
 __all__ = ["Canon"]
 
@@ -203,12 +205,39 @@ class Canon:
             self.dwell(0.0, feed, spindle, file, line)
 
     # Assembly ----------------------------------------------------------------------------------
+    def _check_sizes(self, files: list[str]) -> None:
+        """Refuse coordinates beyond any machine (whose lengths would overflow) and arcs of more turns
+        than the budget, naming the line, before any segment is made."""
+        def where(k: int) -> str:
+            return f"{files[self.file[k]]}:{self.line[k]}"
+
+        ends = np.column_stack([self.x, self.y, self.z])
+        k = _first_bad(~(np.abs(ends) <= MAX_COORD_MM).all(axis=1))
+        if k is not None:
+            raise GcodeError(f"the move ends at {ends[k].tolist()} mm, out of range: coordinates must be within "
+                             f"+-{MAX_COORD_MM:g} mm", where=where(k))
+        if self.arcs:
+            index = np.fromiter(self.arcs, dtype=np.int64, count=len(self.arcs))
+            table = np.array(list(self.arcs.values()), dtype=float)
+            k = _first_bad(~(np.abs(table[:, :3]) <= MAX_COORD_MM).all(axis=1))
+            if k is not None:
+                raise GcodeError(f"the arc's centre {table[k, :3].tolist()} mm is out of range: coordinates "
+                                 f"must be within +-{MAX_COORD_MM:g} mm", where=where(int(index[k])))
+            limit = budget.cap("turns")
+            k = _first_bad(table[:, 5] > limit)
+            if k is not None:
+                raise GcodeError(f"the arc makes {table[k, 5] + 1:,.0f} turns (P), over the arc-turns budget of "
+                                 f"{limit:,}: use fewer turns (FLOWMC_BUDGET_TURNS raises the budget)",
+                                 where=where(int(index[k])))
+
+
     def segments(self, files: list[str]) -> list:
         """The Segment objects, built without re-running their constructors' checks (the
         interpreter checked everything); ``files`` names each file index in ``source``."""
         n = len(self.kind)
         if n == 0:
             return []
+        self._check_sizes(files)
         with _gc_paused():
             ends = np.empty((n, 3))
             ends[:, 0] = self.x
@@ -277,6 +306,11 @@ class Canon:
             for k, changes in self.analog.items():
                 out[k].__dict__["analog"] = tuple(changes.items())
         return out
+
+
+def _first_bad(mask: np.ndarray) -> int | None:
+    hit = np.flatnonzero(mask)
+    return int(hit[0]) if hit.size else None
 
 
 @contextlib.contextmanager

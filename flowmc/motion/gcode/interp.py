@@ -20,6 +20,7 @@ import math
 import re
 from dataclasses import dataclass, field
 
+import flowmc.budget as budget
 import flowmc.motion.gcode.codes as C
 import flowmc.motion.gcode.expr as X
 from flowmc.errors import GcodeError
@@ -55,7 +56,8 @@ class GcodeOptions:
     systems and homes (1: a mm machine; 25.4: inches, as LinuxCNC's standalone rs274).
     ``subroutine_dirs``: folders searched for ``<name>.ngc`` when ``o<name> call`` finds no
     definition. ``flood_output``/``mist_output``: digital outputs that M8/M7 switch (M9 both off).
-    ``max_blocks``/``max_segments``: budgets against endless loops and runaway programs.
+    ``max_blocks``/``max_segments``: budgets against endless loops and runaway programs (None: from
+    the memory budget, ``flowmc.budget``: the segments one node may make, and ten lines run per segment).
     """
 
     rapid_feed: float = 200.0
@@ -66,8 +68,8 @@ class GcodeOptions:
     subroutine_dirs: tuple = ()
     flood_output: int = 1
     mist_output: int = 2
-    max_blocks: int = 20_000_000
-    max_segments: int = 5_000_000
+    max_blocks: int | None = None
+    max_segments: int | None = None
     max_warnings: int = 100
 
 
@@ -88,6 +90,11 @@ class _Frame:
 
 def _rotate(x: float, y: float, c: float, s: float) -> tuple[float, float]:
     return c * x - s * y, s * x + c * y
+
+
+def _too_many_segments(limit: int) -> str:
+    return (f"the program makes more than {limit:,} segments, over the budget: split it, or raise the memory "
+            "budget (flowmc run --memory-mb, FLOWMC_MEMORY_MB) if it is meant to")
 
 
 class Interpreter:
@@ -280,8 +287,8 @@ class Interpreter:
         return err
 
     def _loop(self) -> None:
-        max_blocks = self.options.max_blocks
-        max_segments = self.options.max_segments
+        max_segments = self.options.max_segments or budget.cap("segments")
+        max_blocks = self.options.max_blocks or 10 * budget.cap("segments")
         block_delete = self.options.block_delete
         canon = self.canon
         main = self.sources[0]
@@ -312,8 +319,7 @@ class Interpreter:
                         self.pc = i + done
                         self.blocks_run += done
                         if len(canon.kind) > max_segments:
-                            raise self._error(src, i + done - 1, f"the program makes more than {max_segments} "
-                                                                 f"segments; raise max_segments if it is meant to")
+                            raise self._error(src, i + done - 1, _too_many_segments(max_segments))
                         continue
             self.pc = i + 1
             cached = src.cache.get(i, False) if (self.frames or self.loops) else False
@@ -332,7 +338,8 @@ class Interpreter:
             self.blocks_run += 1
             if self.blocks_run > max_blocks:
                 raise self._error(src, i, f"the program runs more than {max_blocks} lines (an endless loop?); "
-                                          f"raise max_blocks if it is meant to")
+                                          "split it, or raise the memory budget (flowmc run --memory-mb, "
+                                          "FLOWMC_MEMORY_MB) if it is meant to")
             self.line_no = i + 1
             self.file_index = src.index
             try:
@@ -343,8 +350,7 @@ class Interpreter:
             except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
                 raise self._error(src, i, str(exc)) from None
             if len(canon.kind) > max_segments:
-                raise self._error(src, i, f"the program makes more than {max_segments} segments; "
-                                          f"raise max_segments if it is meant to")
+                raise self._error(src, i, _too_many_segments(max_segments))
 
     def _fast_ready(self) -> bool:
         """Whether a run of plain lines may be read at once (nothing special in force)."""

@@ -14,7 +14,9 @@ import math
 import os
 from pathlib import Path as FsPath
 
+import flowmc.budget as budget
 from flowmc.errors import GcodeError
+from flowmc.fileio import read_bytes
 from flowmc.motion.gcode.expr import NUM_PARAMS, EvalError
 
 __all__ = ["Parameters", "read_var_file", "format_var_file", "PERSISTENT"]
@@ -90,9 +92,10 @@ def read_var_file(path: str | os.PathLike, source: str | None = None) -> dict[in
     path = FsPath(path)
     name = source or path.name
     try:
-        text = path.read_bytes().decode("utf-8", errors="replace")
-    except OSError as exc:
-        raise GcodeError(f"cannot read the parameter file: {exc.strerror or exc}", where=name) from exc
+        text = read_bytes(path, limit=budget.cap("bytes"), what="parameter file", error=GcodeError).decode(
+            "utf-8", errors="replace")
+    except GcodeError as exc:
+        raise GcodeError(exc.message, where=name) from None
     values: dict[int, float] = {}
     last = 0
     for k, raw in enumerate(text.lstrip("\ufeff").splitlines()):

@@ -10,17 +10,17 @@ from __future__ import annotations
 
 import os
 import re
-import stat
 from pathlib import Path as FsPath
 
+import flowmc.budget as budget
 from flowmc.errors import GcodeError, printable
+from flowmc.fileio import read_bytes
 from flowmc.motion.gcode.lexer import Block, LexError, parse_line, split_comments
 
 __all__ = ["Source", "load_text", "read_program_file", "quote"]
 
 _PERCENT = re.compile(r"^[ \t]*%")
 _OWORD_LINE = re.compile(r"^[ \t]*(?:/[ \t]*)?(?:[nN][ \t\d.]*)?[oO]")
-_MAX_FILE_BYTES = 1 << 31
 _SUB_NAME = re.compile(r"[a-z0-9_\-]+")
 
 
@@ -117,18 +117,11 @@ class Source:
 
 def read_program_file(path: str | os.PathLike, name: str) -> str:
     """The text of a G-code file; refuses what is not a regular file (a FIFO would block forever)."""
-    path = FsPath(path)
     try:
-        info = os.stat(path)
-        if not stat.S_ISREG(info.st_mode):
-            raise GcodeError("not a regular file (a G-code file must be an ordinary file)", where=name)
-        if info.st_size > _MAX_FILE_BYTES:
-            raise GcodeError(f"the file is too large ({info.st_size} bytes; at most {_MAX_FILE_BYTES})", where=name)
-        with open(path, "rb") as fh:
-            data = fh.read(_MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise GcodeError(f"cannot read the G-code file: {exc.strerror or exc}", where=name) from exc
-    return data.decode("utf-8", errors="replace")
+        data = read_bytes(path, limit=budget.cap("bytes"), what="G-code file", error=GcodeError)
+    except GcodeError as exc:
+        raise GcodeError(exc.message, where=name) from None
+    return data.decode("utf-8-sig", errors="replace")  # a byte-order mark some editors write is dropped
 
 
 def load_text(text: str, name: str, index: int) -> Source:

@@ -13,7 +13,9 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path as FsPath
 
+import flowmc.budget as budget
 from flowmc.errors import GcodeError
+from flowmc.fileio import read_bytes
 
 __all__ = ["Tool", "ToolTable", "parse_tool_table"]
 
@@ -56,10 +58,10 @@ class ToolTable:
         path = FsPath(path)
         name = source or path.name
         try:
-            data = path.read_bytes()
-        except OSError as exc:
-            raise GcodeError(f"cannot read the tool table: {exc.strerror or exc}", where=name) from exc
-        return parse_tool_table(data.decode("utf-8", errors="replace"), name, units_mm=units_mm)
+            data = read_bytes(path, limit=budget.cap("bytes"), what="tool table", error=GcodeError)
+        except GcodeError as exc:
+            raise GcodeError(exc.message, where=name) from None
+        return parse_tool_table(data.decode("utf-8-sig", errors="replace"), name, units_mm=units_mm)
 
 
 def parse_tool_table(text: str, source: str = "tool.tbl", *, units_mm: float = 1.0) -> ToolTable:
