@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -34,10 +34,12 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle
-from flowmc.motion.planner import SmoothPlan, plan_smooth
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid
 from flowmc.motion.signals import path_signals, segment_start_times
 from flowmc.motion.trajectory import Trajectory
+
+if TYPE_CHECKING:  # the smoothing planner (scipy) loads on first use: `flowmc validate` starts without it
+    from flowmc.motion.planner import SmoothPlan
 
 __all__ = [
     "ARM_WEIGHT_TABLE",
@@ -498,6 +500,8 @@ def plan_lookahead(path: Path, machine: Machine, rule: Literal["arm_weighted", "
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
     if rule == "blend":
+        from flowmc.motion.planner import plan_smooth
+
         return plan_smooth(path, machine, tolerance=tolerance, profile=profile)
     lim = PathLimits.of(machine)
     cols, amax = list(lim.cols), lim.amax
