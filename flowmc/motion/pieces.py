@@ -26,7 +26,7 @@ from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import PLANES, Arc, Dwell, Line, Path, describe_segment
 
-__all__ = ["LINE", "ARC", "CURVE", "DWELL", "REVERSAL", "Pieces", "build_pieces", "check_axes", "corner_angle"]
+__all__ = ["LINE", "ARC", "CURVE", "DWELL", "REVERSAL", "Pieces", "build_pieces", "corner_angle"]
 
 LINE, ARC, CURVE, DWELL = 0, 1, 2, 3
 
@@ -147,8 +147,7 @@ class _Rows:
         )
 
 
-def check_axes(path: Path, cols: list[int]) -> None:
-    """PlanningError naming the first segment that moves along an X/Y/Z column not in ``cols``."""
+def _check_axes(path: Path, cols: list[int], machine: Machine) -> None:
     missing = [k for k in range(3) if k not in cols]
     if not missing or not len(path):
         return
@@ -158,7 +157,7 @@ def check_axes(path: Path, cols: list[int]) -> None:
         moved |= np.abs(pts[0, missing] - path.start[missing]) > 1e-9
         if np.any(moved):
             names = ", ".join("XYZ"[k] for k, m in zip(missing, moved) if m)
-            raise PlanningError(f"moves along {names}, which the machine's axes lack",
+            raise PlanningError(f"moves along {names}, which machine axes {machine.names} lack",
                                 where=describe_segment(i, seg.source))
 
 
@@ -227,7 +226,7 @@ def build_pieces(path: Path, machine: Machine, blend_tol: float | None = None) -
     segs = path.segments
     if not segs:
         raise PlanningError("the path has no segments", where="path")
-    check_axes(path, cols)
+    _check_axes(path, cols, machine)
     for i in path.gaps(1e-6):
         raise PlanningError(
             f"starts at {np.round(segs[i].start, 6).tolist()} but the segment before ends at "

@@ -19,6 +19,7 @@ from flowmc.errors import PlanningError
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
+from flowmc.motion.pieces import _check_axes
 from flowmc.motion.signals import path_signals, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
 from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law
@@ -62,6 +63,7 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
         raise PlanningError(f"unknown profile {profile!r}; choose one of {', '.join(PROFILES)}", where="planner")
     lim = PathLimits.of(machine)
     jerk = profile == "scurve"
+    _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
     sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
     curve = sm.curve
 

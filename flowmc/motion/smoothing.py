@@ -55,7 +55,7 @@ from flowmc.errors import PlanningError
 from flowmc.motion.curve import POLY, CurveBuilder, PlannedCurve
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.path import PLANES, Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, describe_segment
-from flowmc.motion.pieces import REVERSAL, check_axes, corner_angle
+from flowmc.motion.pieces import REVERSAL, corner_angle
 from flowmc.motion.ranges import window_max
 
 __all__ = ["Smoothed", "smooth_path", "raw_curve"]
@@ -608,7 +608,6 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     segs = path.segments
     if not segs:
         raise PlanningError("the path has no segments", where="path")
-    check_axes(path, list(limits.cols))
     for i in path.gaps(1e-6):
         raise PlanningError(
             f"starts at {np.round(segs[i].start, 6).tolist()} but the segment before ends at "
