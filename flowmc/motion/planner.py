@@ -71,7 +71,7 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
         return sm.seg_feed[curve.segment_at(u)]
 
     law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, feed_of_u, lim, jerk=jerk)
-    u, dwell_seg = sample_time_law(law, curve, machine.period)
+    u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
     pos = curve.points(u)
     pos[0], pos[-1] = path.start, path.end
     tags = np.where(dwell_seg >= 0, dwell_seg, curve.segment_at(u))

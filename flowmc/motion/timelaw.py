@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.errors import PlanningError
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
@@ -533,12 +534,18 @@ def _phases(law: TimeLaw) -> _Phases:
     return _Phases(start, dur, s0, v0, acc, own)
 
 
-def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float) -> tuple[np.ndarray, np.ndarray]:
+def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
+                    axes: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """Curve parameter u at t = kT (k = 0..N, the last sample exactly at the end of the motion) and, per
     sample, the dwell segment it waits in (-1 elsewhere). Dwells (and, when filtered, a rest of Tj at
-    every stop) are inserted at the stop nodes."""
+    every stop) are inserted at the stop nodes. BudgetError before allocating more setpoints (of ``axes``
+    columns) than the budget allows."""
     ph = _phases(law)
     total = float(ph.start[-1] + ph.dur[-1]) + law.window
+    budget.check("setpoints", total / period + 1, axes=axes,
+                 what=f"planning {total:.6g} s of motion at a {period * 1e3:g} ms period",
+                 change="raise the feeds (a feed near 0 makes a move last for ever), shorten the program, "
+                        "or lengthen the machine's period")
     n = max(1, math.ceil(total / period - 1e-9))
     ts = np.arange(n + 1) * period
     ts[-1] = total
