@@ -211,7 +211,7 @@ def compare_path(path: Path, machine: Machine | None = None, *, tolerance: float
         ours = Settings(profile, servo_period, tolerance, profile == "scurve")
     else:
         ours = flowmc_settings or Settings("as given", flowmc.period, None, False)
-    gcode = path_to_gcode(path, blend_tolerance=tolerance, comment="flowmc compare")
+    gcode = path_to_gcode(path, blend_tolerance=tolerance, comment="flowmc compare", events="dwells")
     run = run_program(gcode, machine, servo_period=servo_period, name="compare.ngc")
     table = compare_trajectories(flowmc, run, path, machine, tolerance, (ours.jerk_limited, theirs.jerk_limited))
     return Comparison(table, flowmc, run, gcode, (ours, theirs), tuple(_differences(ours, theirs, path, machine)))
