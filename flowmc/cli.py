@@ -260,8 +260,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return serve_main(args, devices=DeviceSession())
 
 
-def _graph_values(file: str, registry: Any) -> tuple[Any, Any, Any]:
-    """The last Path and Machine the graph produces, and its look-ahead plan if it has one."""
+def _graph_values(file: str, registry: Any) -> tuple[Any, Any, Any, Any]:
+    """The last Path and Machine the graph produces, and its look-ahead plan and that node's params if it
+    has one."""
     import flowmc
     from flowmc.motion.machine import Machine
     from flowmc.motion.path import Path as MotionPath
@@ -272,7 +273,8 @@ def _graph_values(file: str, registry: Any) -> tuple[Any, Any, Any]:
     if not result.ok:
         raise GraphError("the graph failed: " + "; ".join(result.errors), where=file)
     types = {node.id: node.type for node in graph.nodes}
-    path = machine = plan = None
+    path = machine = plan = plan_params = None
+    params = {node.id: node.params for node in graph.nodes}
     for node_id in result.order:
         outputs = result.nodes[node_id].outputs
         for value in outputs.values():
@@ -281,21 +283,28 @@ def _graph_values(file: str, registry: Any) -> tuple[Any, Any, Any]:
             elif isinstance(value, Machine):
                 machine = value
         if types.get(node_id) == "plan.lookahead" and isinstance(outputs.get("trajectory"), Trajectory):
-            plan = outputs["trajectory"]
+            plan, plan_params = outputs["trajectory"], params.get(node_id) or {}
     if path is None:
         raise GraphError("the graph produces no Path to compare", where=file)
-    return path, machine, plan
+    return path, machine, plan, plan_params
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    """Print flowmc's plan of the graph's path beside what LinuxCNC executed for it."""
-    from flowmc.devices.linuxcnc.compare import compare_path
+    """Print flowmc's plan of the graph's path beside what LinuxCNC executed for it, set up alike
+    (or, with --as-planned, the graph's own look-ahead plan as it is)."""
+    from flowmc.devices.linuxcnc.compare import Settings, compare_path
 
-    path, machine, plan = _graph_values(args.graph, _registry(args))
-    comparison = compare_path(path, machine, tolerance=args.tolerance, flowmc=plan)
-    source = "the graph's look-ahead plan" if plan is not None else "flowmc's look-ahead planner"
-    print(f"{args.graph}: {source} vs LinuxCNC (G64 P{args.tolerance:g}, servo period "
-          f"{comparison.linuxcnc.servo_period * 1e3:g} ms)")
+    path, machine, plan, plan_params = _graph_values(args.graph, _registry(args))
+    if args.as_planned and plan is not None:
+        profile = plan_params.get("profile", "trapezoid")
+        jerk = profile == "scurve" and plan_params.get("rule", "blend") == "blend"
+        settings = Settings(profile, plan.period, float(plan_params.get("tolerance", 0.05)), jerk)
+        comparison = compare_path(path, machine, tolerance=args.tolerance, flowmc=plan, flowmc_settings=settings)
+        source = "the graph's own look-ahead plan"
+    else:
+        comparison = compare_path(path, machine, tolerance=args.tolerance, profile=args.profile)
+        source = "flowmc's look-ahead planner, set up like LinuxCNC"
+    print(f"{args.graph}: {source} vs LinuxCNC (G64 P{args.tolerance:g})")
     print(comparison.text())
     return EXIT_OK
 
@@ -394,6 +403,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the reference that runs the same program (default: linuxcnc)")
     p.add_argument("--tolerance", type=float, default=0.05, metavar="MM",
                    help="corner tolerance: G64 P for LinuxCNC, blend tolerance for flowmc (default: 0.05)")
+    p.add_argument("--profile", choices=["trapezoid", "scurve"], default="trapezoid",
+                   help="flowmc's profile (default: trapezoid, as LinuxCNC's planner; scurve is listed as a difference)")
+    p.add_argument("--as-planned", action="store_true",
+                   help="compare the graph's own look-ahead plan as it is, differences listed at the top")
     p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("sweep", parents=[plugins],

@@ -28,7 +28,7 @@ from flowmc.errors import PathError, PlanningError
 from flowmc.motion import nurbs, profiles, timediv
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
-from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path, describe_segment
+from flowmc.motion.path import PLANES, Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, describe_segment
 from flowmc.motion.signals import path_signals
 from flowmc.motion.trajectory import Trajectory
 
@@ -60,7 +60,7 @@ def _assemble(chunks: list[np.ndarray], period: float, path: Path) -> Trajectory
         seg_idx.append(np.full(len(chunk), i, dtype=int))
         count += len(chunk)
     return Trajectory(np.vstack(pts), period, np.concatenate(seg_idx), signals=path_signals(path, starts),
-                      segment_names=path.segment_names())
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
 
 
 # ---------------------------------------------------------------- time division
@@ -108,6 +108,7 @@ def time_division(path: Path, machine: Machine, *, profile: Literal["trapezoid",
         elif isinstance(seg, Line):
             radius = math.inf
         else:  # ellipse or NURBS: sampled by arc length, bounded by its tightest radius
+            assert isinstance(seg, (EllipseArc, NurbsCurve)), type(seg).__name__
             radius = seg.min_radius
         if math.isfinite(radius):
             accel = amax * _SPLIT

@@ -112,7 +112,8 @@ class PathLimits:
     def smallest(self) -> tuple[float, float, float]:
         """The smallest vmax, amax and jmax among the machine's X, Y, Z: the bound of an interpolator
         that applies one limit to every direction."""
-        return tuple(float(np.min(lim[list(self.cols)])) for lim in (self.vmax, self.amax, self.jmax))
+        v, a, j = (float(np.min(lim[list(self.cols)])) for lim in (self.vmax, self.amax, self.jmax))
+        return v, a, j
 
 
 def segment_feed(seg, where: str) -> float:

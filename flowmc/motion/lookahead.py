@@ -8,8 +8,9 @@ limits, and a trapezoid or S-curve profile joins consecutive junctions. The rule
   change at a corner within one period stays within w*a.
 - ``junction_deviation`` (GRBL): v^2 <= a*delta*cos(alpha/2) / (1 - cos(alpha/2)), the speed of a
   circle of deviation delta tangent to both moves; the sampled path still turns sharply.
-- ``blend``: corners between lines are rounded by tangent arcs within the tolerance (G64 P style);
-  the path is then tangent-continuous and its arcs are planned like any arc.
+- ``blend``: handed to flowmc.motion.planner: corners and runs of short segments smoothed within the
+  tolerance (G64 P Q style, across many segments), then the fastest per-axis time law; jerk-limited
+  per axis with ``profile="scurve"``.
 
 At a rule corner passed at speed the profile holds its speed for two periods on each side, so the
 sampled acceleration there is the pure direction change the rule bounds (the paper's "first period
@@ -23,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -36,6 +37,9 @@ from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_a
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid
 from flowmc.motion.signals import path_signals, segment_start_times
 from flowmc.motion.trajectory import Trajectory
+
+if TYPE_CHECKING:  # the smoothing planner (scipy) loads on first use: `flowmc validate` starts without it
+    from flowmc.motion.planner import SmoothPlan
 
 __all__ = [
     "ARM_WEIGHT_TABLE",
@@ -332,7 +336,7 @@ def _stack(columns: list[tuple], runs_n: int) -> _Phases:
 
 def _profile_phases(profiles: list[Profile]) -> _Phases:
     """Phases from profiles.py profiles, one per run."""
-    cols = {name: [] for name in ("dur", "v0", "a0", "jerk", "dv", "ratio", "run")}
+    cols: dict[str, list[np.ndarray]] = {name: [] for name in ("dur", "v0", "a0", "jerk", "dv", "ratio", "run")}
     for r, prof in enumerate(profiles):
         m = len(prof.seg_v)
         cols["dur"].append(np.diff(prof.t))
@@ -477,8 +481,12 @@ def _sample(pieces: Pieces, runs: _Runs, phases: _Phases, path: Path, machine: M
 # ---------------------------------------------------------------- planners
 
 def plan_lookahead(path: Path, machine: Machine, rule: Literal["arm_weighted", "junction_deviation", "blend"] = "blend",
-                   tolerance: float = 0.05, profile: Literal["trapezoid", "scurve"] = "trapezoid") -> Plan:
+                   tolerance: float = 0.05, profile: Literal["trapezoid", "scurve"] = "trapezoid") -> Plan | SmoothPlan:
     """Plan the whole program with look-ahead.
+
+    ``blend`` (the default) smooths corners and runs of short segments within the tolerance and plans the
+    fastest per-axis time law along the result (flowmc.motion.planner: a SmoothPlan). The paper's rules
+    plan segment by segment with junction speeds, as below (a Plan).
 
     ``tolerance`` (mm) is the corner tolerance for ``blend`` and GRBL's junction deviation for
     ``junction_deviation``; ``arm_weighted`` needs none. Raises PlanningError for unknown options
@@ -491,6 +499,10 @@ def plan_lookahead(path: Path, machine: Machine, rule: Literal["arm_weighted", "
                             where="planner")
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
+    if rule == "blend":
+        from flowmc.motion.planner import plan_smooth
+
+        return plan_smooth(path, machine, tolerance=tolerance, profile=profile)
     lim = PathLimits.of(machine)
     cols, amax = list(lim.cols), lim.amax
     pieces = build_pieces(path, machine, blend_tol=tolerance if rule == "blend" else None)

@@ -26,6 +26,9 @@ __all__ = [
     "corner_spike_ratio",
     "programmed_polyline",
     "contour_error",
+    "coverage_error",
+    "farthest_from",
+    "feed_ratio",
     "feed_fluctuation",
     "trajectory_report",
 ]
@@ -166,6 +169,45 @@ def contour_error(positions: np.ndarray, polyline: np.ndarray) -> float:
         a, b = pts[:, :-1].reshape(-1, dim), pts[:, 1:].reshape(-1, dim)
         da, db, oa, ob = dd[:, :-1].ravel(), dd[:, 1:].ravel(), oo[:, :-1].ravel(), oo[:, 1:].ravel()
     return best
+
+
+def coverage_error(positions: np.ndarray, polyline: np.ndarray, spacing: float = 0.005) -> float:
+    """The other way round from ``contour_error``: the largest distance from any point of the programmed
+    polyline (every vertex, and points at most ``spacing`` mm apart along it) to the sampled tool path
+    (the polyline through the setpoints). A plan that skips part of the path shows here."""
+    path = np.asarray(polyline, dtype=float)
+    steps = np.diff(path, axis=0)
+    n = np.maximum(1, np.ceil(np.linalg.norm(steps, axis=1) / spacing).astype(int))
+    frac = np.concatenate([np.arange(k) / k for k in n])
+    owner = np.repeat(np.arange(len(steps)), n)
+    points = np.vstack([path[owner] + frac[:, None] * steps[owner], path[-1:]])
+    return farthest_from(positions, points)
+
+
+def farthest_from(positions: np.ndarray, points: np.ndarray) -> float:
+    """The largest distance from any of ``points`` to the sampled tool path (the polyline through the
+    setpoints ``positions``)."""
+    tool = np.asarray(positions, dtype=float)
+    tool = tool[np.r_[True, np.any(np.diff(tool, axis=0) != 0, axis=1)]]  # rests add nothing
+    d, _ = _PolylineDistance(tool)(np.asarray(points, dtype=float))
+    return float(d.max())
+
+
+def feed_ratio(positions: np.ndarray, period: float, path: Path, moving=None) -> float:
+    """Largest path speed over the programmed feed, each sampled chord judged by the feed of the programmed
+    segment nearest its middle (rapids left out: they run at the machine's rapid rate). ``moving``: a mask
+    of the chords to judge (default: every chord that moves)."""
+    p = np.asarray(positions, dtype=float)
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) / period
+    keep = speed > 0 if moving is None else (speed > 0) & np.asarray(moving, dtype=bool)
+    if not keep.any():
+        return 0.0
+    pts, seg = path.sample(1e-3)
+    _, owner = _PolylineDistance(pts[:, :p.shape[1]])(0.5 * (p[1:] + p[:-1])[keep])
+    segs = path.segments
+    feed = np.array([s.feed for s in segs], dtype=float)[seg[owner]]
+    rapid = np.array([s.rapid for s in segs], dtype=bool)[seg[owner]]
+    return float(np.max(np.where(rapid, 0.0, speed[keep] / feed)))
 
 
 def feed_fluctuation(positions: np.ndarray, period: float, feed, lengths=None) -> dict:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -16,6 +16,8 @@ class CompareParams(BaseModel):
                                                               "tolerance for flowmc", json_schema_extra={"unit": "mm"})] = 0.05
     servo_period: Annotated[float, Field(gt=0, le=0.01, description="LinuxCNC's servo period",
                                          json_schema_extra={"unit": "s"})] = 0.001
+    profile: Annotated[Literal["trapezoid", "scurve"], Field(
+        description="flowmc's profile when it plans here (LinuxCNC's planner is trapezoidal)")] = "trapezoid"
 
 
 @register
@@ -30,17 +32,17 @@ class LinuxCNCCompare(NodeType):
     inputs = (
         In("path", "Path", doc="The programmed path"),
         In("machine", "Machine", doc="Axis limits (default: the default machine)", default=None),
-        In("trajectory", "Trajectory", doc="flowmc's plan (default: look-ahead with blends)", default=None),
+        In("trajectory", "Trajectory", doc="flowmc's plan (default: planned here like LinuxCNC)", default=None),
     )
     outputs = (
-        Out("report", "Table", doc="quantity, unit, flowmc, linuxcnc"),
+        Out("report", "Table", doc="quantity, unit, flowmc, linuxcnc, limit, over (which side breaks it)"),
         Out("linuxcnc", "Trajectory", doc="What LinuxCNC executed, every servo period"),
     )
 
     def run(self, ctx, params: CompareParams, path, machine=None, trajectory=None):
         from flowmc.devices.linuxcnc.compare import compare_path
 
-        result = compare_path(path, machine, tolerance=params.tolerance, flowmc=trajectory,
+        result = compare_path(path, machine, tolerance=params.tolerance, profile=params.profile, flowmc=trajectory,
                               servo_period=params.servo_period)
         ctx.log(result.text())
         return {"report": result.table, "linuxcnc": result.linuxcnc.trajectory()}

@@ -21,7 +21,7 @@ def read_csv(path):
 
 
 def test_a_sweep_writes_csv_parquet_and_a_report(tmp_path):
-    graph = gcode_graph(tmp_path, max_cycle_time=5.7)
+    graph = gcode_graph(tmp_path, max_cycle_time=5.87)
     (tmp_path / "rules.csv").write_text("rule,plan.tolerance\nblend,0.05\njunction_deviation,0.02\n")
     proc = run_cli("sweep", graph, "--over", "gcode.file=programs/*.ngc", "--table", "rules.csv", "--workers", "2",
                    "--pareto", "cycle_time,max:plan.tolerance", "--plot", "cycle_time", cwd=tmp_path)
@@ -32,8 +32,8 @@ def test_a_sweep_writes_csv_parquet_and_a_report(tmp_path):
     assert list(rows[0])[:10] == ["variant", "status", "error", "duration_s", "ran", "cached", "worker",
                                   "gcode.file", "rule", "plan.tolerance"]
     assert [r["status"] for r in rows] == ["done", "done", "failed", "failed", "done", "done"]
-    assert "check failed: cycle time = 5.876" in rows[2]["error"] and rows[2]["out.checked"] == ""
-    assert float(rows[2]["out.cycle_time"]) == pytest.approx(5.876, abs=0.01)
+    assert "check failed: cycle time = 6.588" in rows[2]["error"] and rows[2]["out.checked"] == ""
+    assert float(rows[2]["out.cycle_time"]) == pytest.approx(6.588, abs=0.01)
     assert pq.read_table(out / "rows.parquet").to_pylist()[0]["out.cycle_time"] == float(rows[0]["out.cycle_time"])
     report = (out / "report.html").read_text()
     assert "Pareto front" in report and "cycle_time against gcode.file" in report and "Plotly.newPlot" in report

@@ -1,55 +1,112 @@
-"""flowmc's plan of a program beside what LinuxCNC executed for the same program.
+"""flowmc's plan of a program beside what LinuxCNC executed for the same program, like with like.
 
-``compare_trajectories`` takes two sampled trajectories and the programmed path and
-measures both the same way (flowmc.motion.metrics): cycle time of the feed moves, the
-largest deviation of each tool path from the other and from the programmed path, and
-peak velocity and acceleration per axis from finite differences of the samples.
-``compare_path`` plans the path with flowmc's look-ahead planner (unless given a
-trajectory), runs it as G-code on LinuxCNC and compares (``flowmc compare`` and the
-Compare node use it).
+Both sides are set up alike unless told otherwise: the same per-axis limits (the Machine), the same
+period (LinuxCNC's servo period; flowmc plans at it), the same corner tolerance (G64 P for LinuxCNC,
+the blend tolerance for flowmc) and the same kind of profile (LinuxCNC 2.9's planner limits
+acceleration, not jerk, so flowmc plans trapezoids). Anything that still differs (a jerk-limited flowmc
+profile, a trajectory planned elsewhere at another period, rapids LinuxCNC runs at its maximum
+velocity) is listed in ``Comparison.differences`` and printed at the top of ``text()``.
+
+Both sides are then measured the same way, from their samples (flowmc.motion.metrics): cycle time of
+the feed moves, deviation from the programmed path both ways (samples to path and path to samples)
+and from each other, the path speed over the programmed feed, and per-axis peak velocity,
+acceleration and jerk over each axis's limit. A side that breaks a limit (feed over F, deviation over
+the tolerance, an axis over its vmax, its amax with the README's 1 % sampling margin, or its jmax
+when the side limits jerk) is flagged in the table's ``over`` column.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from flowmc.devices.linuxcnc.backend import MOTION_ARC, MOTION_FEED, SERVO_PERIOD, LinuxCNCRun, run_program
 from flowmc.motion.gcode_write import path_to_gcode
+from flowmc.motion.limits import AxisLimits
 from flowmc.motion.machine import Machine, default_machine
-from flowmc.motion.metrics import contour_error, programmed_polyline
+from flowmc.motion.metrics import contour_error, coverage_error, feed_ratio, programmed_polyline
 from flowmc.motion.path import Dwell, Path
 from flowmc.motion.table import Table
 from flowmc.motion.trajectory import Trajectory
 
-__all__ = ["Comparison", "compare_trajectories", "compare_path", "flowmc_feed_time"]
+__all__ = ["Settings", "Comparison", "compare_trajectories", "compare_path", "flowmc_feed_time"]
 
 AXES = ("X", "Y", "Z")
+ACCEL_MARGIN = 0.01  # sampled acceleration may exceed amax by this share (reference README)
+SPEED_MARGIN = 1e-3  # and the path speed the feed by this (rounding of positions)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How one side moves: profile kind, period (s), corner tolerance (mm) and whether jerk is limited."""
+
+    profile: str
+    period: float
+    tolerance: float | None
+    jerk_limited: bool
+
+    def describe(self) -> str:
+        tol = "unknown tolerance" if self.tolerance is None else f"tolerance {self.tolerance:g} mm"
+        jerk = "jerk limited per axis" if self.jerk_limited else "jerk not limited"
+        return f"{self.profile}, T = {self.period * 1e3:g} ms, {tol}, {jerk}"
+
+
+def linuxcnc_settings(tolerance: float, servo_period: float) -> Settings:
+    """LinuxCNC 2.9's trajectory planner: trapezoidal velocity (acceleration-limited), G64 P blends."""
+    return Settings("trapezoid", servo_period, tolerance, False)
 
 
 @dataclass(frozen=True, eq=False)
 class Comparison:
-    """The report (a Table: quantity, unit, flowmc, linuxcnc) and what it was measured on."""
+    """The report and what it was measured on.
+
+    ``table``: columns quantity, unit, flowmc, linuxcnc, limit (the bound a value is judged by, NaN for
+    none) and over ("", "flowmc", "linuxcnc" or "both"). ``differences``: how the two sides were not
+    set up alike (empty when they were).
+    """
 
     table: Table
     flowmc: Trajectory
     linuxcnc: LinuxCNCRun
     gcode: str
+    settings: tuple[Settings, Settings]
+    differences: tuple[str, ...]
 
     def value(self, quantity: str, side: str) -> float:
         """One cell, e.g. ``value("feed cycle time", "linuxcnc")``."""
         rows = list(self.table["quantity"])
         return float(self.table[side][rows.index(quantity)])
 
+    @property
+    def broken(self) -> list[str]:
+        """One line for every limit a side breaks."""
+        out = []
+        for q, u, f, lc, lim, over in zip(*(self.table[c] for c in ("quantity", "unit", "flowmc", "linuxcnc",
+                                                                   "limit", "over"))):
+            if over:
+                sides = {"flowmc": [("flowmc", f)], "linuxcnc": [("LinuxCNC", lc)],
+                         "both": [("flowmc", f), ("LinuxCNC", lc)]}[over]
+                out += [f"{name}: {q} {v:.4g} {u} over {lim:.4g} {u}" for name, v in sides]
+        return out
+
     def text(self) -> str:
-        """The table as aligned text."""
-        rows = [("quantity", "unit", "flowmc", "linuxcnc")]
-        rows += [(q, u, f"{f:.4f}", f"{lc:.4f}") for q, u, f, lc in zip(self.table["quantity"], self.table["unit"],
-                                                                       self.table["flowmc"], self.table["linuxcnc"])]
-        widths = [max(len(r[i]) for r in rows) for i in range(4)]
-        return "\n".join("  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
-                         for r in rows)
+        """Settings and differences at the top, then the table (a ``!`` marks a broken limit), then what broke."""
+        head = [f"flowmc:   {self.settings[0].describe()}", f"LinuxCNC: {self.settings[1].describe()}"]
+        head += ["differences: " + ("none" if not self.differences else "")]
+        head += [f"  - {d}" for d in self.differences]
+        cols = ("quantity", "unit", "flowmc", "linuxcnc", "limit")
+        rows = [cols]
+        for q, u, f, lc, lim, over in zip(*(self.table[c] for c in (*cols, "over"))):
+            mark_f = "!" if over in ("flowmc", "both") else " "
+            mark_l = "!" if over in ("linuxcnc", "both") else " "
+            rows.append((q, u, f"{f:.4f}{mark_f}", f"{lc:.4f}{mark_l}", "" if np.isnan(lim) else f"{lim:.4g}"))
+        widths = [max(len(r[i]) for r in rows) for i in range(len(cols))]
+        body = ["  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
+                for r in rows]
+        tail = ["limits broken: " + ("none" if not self.broken else "")] + [f"  ! {b}" for b in self.broken]
+        return "\n".join(head + body + tail)
 
 
 def flowmc_feed_time(traj: Trajectory, path: Path) -> float:
@@ -60,53 +117,123 @@ def flowmc_feed_time(traj: Trajectory, path: Path) -> float:
     return float(np.count_nonzero(feed[seg] & moved)) * traj.period
 
 
-def _peaks(positions: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
-    v = np.diff(positions, axis=0) / period
-    a = np.diff(v, axis=0) / period
-    vmax = np.abs(v).max(axis=0) if len(v) else np.zeros(positions.shape[1])
-    amax = np.abs(a).max(axis=0) if len(a) else np.zeros(positions.shape[1])
-    return vmax, amax
+def _xyz(traj_positions: np.ndarray, axes) -> np.ndarray:
+    out = np.zeros((len(traj_positions), 3))
+    for i, a in enumerate(axes):
+        if a.upper() in AXES:
+            out[:, AXES.index(a.upper())] = traj_positions[:, i]
+    return out
 
 
-def compare_trajectories(flowmc: Trajectory, linuxcnc: LinuxCNCRun, path: Path) -> Table:
-    """Side-by-side measures of flowmc's trajectory and LinuxCNC's executed motion for ``path``.
+def _peaks(positions: np.ndarray, period: float) -> list[np.ndarray]:
+    """Largest sampled |v|, |a|, |j| per axis."""
+    out, d = [], positions
+    for _ in range(3):
+        d = np.diff(d, axis=0) / period
+        out.append(np.abs(d).max(axis=0) if len(d) else np.zeros(positions.shape[1]))
+    return out
+
+
+def compare_trajectories(flowmc: Trajectory, linuxcnc: LinuxCNCRun, path: Path, machine: Machine | None = None,
+                         tolerance: float = 0.05, jerk_limited: tuple[bool, bool] = (False, False)) -> Table:
+    """Side-by-side measures of flowmc's trajectory and LinuxCNC's executed motion for ``path``, each
+    judged against ``machine``'s per-axis limits and the corner ``tolerance`` (see the module docstring).
 
     LinuxCNC's record starts where it homed; the traverse from there to the path's start is left
-    out of the deviations (it is not part of ``path``). Deviations are chord distances as in
-    ``flowmc.motion.metrics.contour_error``.
+    out of the deviations (it is not part of ``path``).
     """
-    cols = [AXES.index(a.upper()) for a in flowmc.axes if a.upper() in AXES]
-    ours = np.zeros((len(flowmc), 3))
-    ours[:, cols] = flowmc.positions[:, [i for i, a in enumerate(flowmc.axes) if a.upper() in AXES]]
+    machine = machine if machine is not None else default_machine()
+    lim = AxisLimits.of(machine, [a for a in AXES if a in machine.names])
+    vmax, amax, jmax = (np.array([getattr(lim, f)[list(lim.names).index(a)] if a in lim.names else np.inf
+                                  for a in AXES]) for f in ("vmax", "amax", "jmax"))
+    ours = _xyz(flowmc.positions, flowmc.axes)
     feed_rows = np.flatnonzero(np.isin(linuxcnc.motion_type, (MOTION_FEED, MOTION_ARC)))
     first = max(feed_rows[0] - 1, 0) if feed_rows.size else 0
     theirs = linuxcnc.samples[first:]
     programmed = programmed_polyline(path)
-    v_ours, a_ours = _peaks(ours, flowmc.period)
-    v_theirs, a_theirs = _peaks(linuxcnc.samples, linuxcnc.servo_period)
+    peaks_ours = _peaks(ours, flowmc.period)
+    peaks_theirs = _peaks(linuxcnc.samples, linuxcnc.servo_period)
+    lc_feed = np.isin(linuxcnc.motion_type[first + 1:], (MOTION_FEED, MOTION_ARC))
+    nan = float("nan")
+    # (quantity, unit, flowmc, linuxcnc, limit for flowmc, limit for linuxcnc)
     rows = [
-        ("feed cycle time", "s", flowmc_feed_time(flowmc, path), linuxcnc.feed_time),
-        ("total time", "s", flowmc.duration, linuxcnc.duration),
-        ("period", "s", flowmc.period, linuxcnc.servo_period),
-        ("deviation from the other tool path", "mm", contour_error(ours, theirs), contour_error(theirs, ours)),
+        ("feed cycle time", "s", flowmc_feed_time(flowmc, path), linuxcnc.feed_time, nan, nan),
+        ("total time", "s", flowmc.duration, linuxcnc.duration, nan, nan),
+        ("period", "s", flowmc.period, linuxcnc.servo_period, nan, nan),
         ("deviation from the programmed path", "mm", contour_error(ours, programmed),
-         contour_error(theirs, programmed)),
+         contour_error(theirs, programmed), tolerance, tolerance),
+        ("deviation of the programmed path from the tool path", "mm", coverage_error(ours, programmed),
+         coverage_error(theirs, programmed), tolerance, tolerance),
+        ("deviation from the other tool path", "mm", contour_error(ours, theirs), contour_error(theirs, ours),
+         nan, nan),
+        ("peak path speed over the feed", "x F", feed_ratio(ours, flowmc.period, path),
+         feed_ratio(theirs, linuxcnc.servo_period, path, lc_feed), 1.0 + SPEED_MARGIN, 1.0 + SPEED_MARGIN),
     ]
-    rows += [(f"peak velocity {a}", "mm/s", v_ours[i], v_theirs[i]) for i, a in enumerate(AXES)]
-    rows += [(f"peak acceleration {a}", "mm/s^2", a_ours[i], a_theirs[i]) for i, a in enumerate(AXES)]
+    for name, unit, k, limit, margin in (("velocity", "mm/s", 0, vmax, 0.0), ("acceleration", "mm/s^2", 1, amax,
+                                                                            ACCEL_MARGIN),
+                                         ("jerk", "mm/s^3", 2, jmax, 0.0)):
+        for i, axis in enumerate(AXES):
+            if not np.isfinite(limit[i]):
+                continue
+            bound = limit[i] * (1.0 + margin)
+            bounds = [bound, bound]
+            if name == "jerk":  # only a side that limits jerk is held to it
+                bounds = [bound if jerk_limited[0] else nan, bound if jerk_limited[1] else nan]
+            rows.append((f"peak {name} {axis}", unit, peaks_ours[k][i], peaks_theirs[k][i], *bounds))
+    over = []
+    for r in rows:
+        f_over = not np.isnan(r[4]) and r[2] > r[4]
+        l_over = not np.isnan(r[5]) and r[3] > r[5]
+        over.append({(True, True): "both", (True, False): "flowmc", (False, True): "linuxcnc"}.get((f_over, l_over), ""))
+    limit_col = [r[4] if not np.isnan(r[4]) else r[5] for r in rows]
     return Table({"quantity": [r[0] for r in rows], "unit": [r[1] for r in rows],
-                  "flowmc": [float(r[2]) for r in rows], "linuxcnc": [float(r[3]) for r in rows]})
+                  "flowmc": [float(r[2]) for r in rows], "linuxcnc": [float(r[3]) for r in rows],
+                  "limit": [float(x) for x in limit_col], "over": over})
 
 
 def compare_path(path: Path, machine: Machine | None = None, *, tolerance: float = 0.05,
-                 flowmc: Trajectory | None = None, servo_period: float = SERVO_PERIOD) -> Comparison:
-    """Plan ``path`` with flowmc (look-ahead, corners blended within ``tolerance`` mm) unless a
-    trajectory is given, run it on LinuxCNC as G-code with ``G64 P<tolerance>``, and compare."""
-    machine = machine if machine is not None else default_machine()
-    if flowmc is None:
-        from flowmc.motion.lookahead import plan_lookahead
+                 profile: Literal["trapezoid", "scurve"] = "trapezoid",
+                 flowmc: Trajectory | None = None, flowmc_settings: Settings | None = None,
+                 servo_period: float = SERVO_PERIOD) -> Comparison:
+    """Plan ``path`` with flowmc like LinuxCNC (same limits, period, tolerance; ``profile`` trapezoid unless
+    told otherwise), run it on LinuxCNC as G-code with ``G64 P<tolerance>``, and compare.
 
-        flowmc = plan_lookahead(path, machine, rule="blend", tolerance=tolerance).trajectory
+    ``flowmc`` compares a trajectory planned elsewhere instead (``flowmc_settings``: how, when known);
+    how it differs from LinuxCNC's set-up is listed in the comparison's ``differences``.
+    """
+    machine = machine if machine is not None else default_machine()
+    theirs = linuxcnc_settings(tolerance, servo_period)
+    if flowmc is None:
+        from flowmc.motion.planner import plan_smooth
+
+        flowmc = plan_smooth(path, machine.model_copy(update={"period": servo_period}), tolerance=tolerance,
+                             profile=profile).trajectory
+        ours = Settings(profile, servo_period, tolerance, profile == "scurve")
+    else:
+        ours = flowmc_settings or Settings("as given", flowmc.period, None, False)
     gcode = path_to_gcode(path, blend_tolerance=tolerance, comment="flowmc compare", events="dwells")
     run = run_program(gcode, machine, servo_period=servo_period, name="compare.ngc")
-    return Comparison(compare_trajectories(flowmc, run, path), flowmc, run, gcode)
+    table = compare_trajectories(flowmc, run, path, machine, tolerance, (ours.jerk_limited, theirs.jerk_limited))
+    return Comparison(table, flowmc, run, gcode, (ours, theirs), tuple(_differences(ours, theirs, path, machine)))
+
+
+def _differences(ours: Settings, theirs: Settings, path: Path, machine: Machine) -> list[str]:
+    out = []
+    if ours.profile != theirs.profile:
+        out.append(f"profile: flowmc {ours.profile}, LinuxCNC {theirs.profile}")
+    if ours.jerk_limited != theirs.jerk_limited:
+        out.append("jerk: " + ("flowmc limits it per axis, LinuxCNC does not" if ours.jerk_limited
+                               else "LinuxCNC limits it, flowmc does not"))
+    if abs(ours.period - theirs.period) > 1e-12:
+        out.append(f"period: flowmc {ours.period * 1e3:g} ms, LinuxCNC {theirs.period * 1e3:g} ms")
+    if ours.tolerance is None:
+        out.append(f"tolerance: flowmc's plan was made elsewhere (unknown), LinuxCNC G64 P{theirs.tolerance:g}")
+    elif theirs.tolerance is None or abs(ours.tolerance - theirs.tolerance) > 1e-12:
+        out.append(f"tolerance: flowmc {ours.tolerance:g} mm, LinuxCNC G64 P{theirs.tolerance:g}")
+    xyz = [a for a in machine.axes if a.name.upper() in AXES]
+    rapid_rate = max(a.vmax for a in xyz) if xyz else 0.0
+    rapids = {float(s.feed) for s in path.segments if s.rapid}
+    if any(abs(f - rapid_rate) > 1e-9 for f in rapids):
+        out.append(f"rapids: flowmc runs each at its feed ({', '.join(f'{f:g}' for f in sorted(rapids))} mm/s), "
+                   f"LinuxCNC at its maximum velocity ({rapid_rate:g} mm/s)")
+    return out

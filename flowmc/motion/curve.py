@@ -1,0 +1,181 @@
+"""The planned curve: the geometry a planner moves along, after corners and short-segment runs are smoothed.
+
+One global parameter ``u`` runs along the whole program, continuously differentiable: lines, arcs
+and tangent-arc blends by their arc length; a fitted spline that replaces the stretch [u_a, u_b]
+of the programmed path by the programmed arc length over that stretch (its speed ``|dp/du|`` is
+1 at both ends, where it joins its neighbours, and a little below 1 where it cuts corners). Each
+interval also knows which stretch of the programmed path it stands for (``pu0``, ``prate``: the
+programmed arc length at its start and per mm of u), so segment tags, feeds and tool state are a
+plain look-up (``segment_at``).
+
+Intervals are polynomials (lines, fitted cubic splines, tabulated curves; coefficients in powers
+of ``u - u0``) or circular/helical arcs (closed form). ``evaluate(u, order)`` gives positions and
+derivatives up to the third (what per-axis jerk needs), vectorised by kind.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["POLY", "ARC", "PlannedCurve", "CurveBuilder"]
+
+POLY, ARC = 0, 1
+
+
+@dataclass(frozen=True, eq=False)
+class PlannedCurve:
+    """Struct of arrays over intervals [u0, u1) in order, and the programmed segments' boundaries.
+
+    POLY rows: ``coef[k]`` (4, 3), p(u) = sum_m coef[k, m] (u - u0[k])^m.
+    ARC rows: p(u) = centre + radius (cos(phi) e1 + sin(phi) e2) + rise * (u - u0) w, with
+    phi = phi0 + dphi * (u - u0) (radians per mm of u) and ``rise`` in mm per mm of u.
+    ``pu0``, ``prate``: programmed arc length at the interval's start and its rate per mm of u.
+    ``seg_u0``: where each programmed segment starts in programmed arc length (non-decreasing; a
+    dwell has zero length).
+    """
+
+    u0: np.ndarray
+    u1: np.ndarray
+    kind: np.ndarray
+    coef: np.ndarray
+    centre: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    w: np.ndarray
+    radius: np.ndarray
+    phi0: np.ndarray
+    dphi: np.ndarray
+    rise: np.ndarray
+    pu0: np.ndarray
+    prate: np.ndarray
+    seg_u0: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.u0)
+
+    @property
+    def length(self) -> float:
+        return float(self.u1[-1]) if len(self) else 0.0
+
+    def interval_at(self, u: np.ndarray) -> np.ndarray:
+        return np.clip(np.searchsorted(self.u0, u, side="right") - 1, 0, len(self.u0) - 1)
+
+    def programmed_u(self, u) -> np.ndarray:
+        """Programmed arc length at curve parameters u."""
+        u = np.asarray(u, dtype=float)
+        k = self.interval_at(u)
+        return self.pu0[k] + self.prate[k] * (u - self.u0[k])
+
+    def curve_u(self, pu) -> np.ndarray:
+        """Curve parameter at programmed arc lengths ``pu`` (the inverse of ``programmed_u``)."""
+        pu = np.asarray(pu, dtype=float)
+        k = np.clip(np.searchsorted(self.pu0, pu, side="right") - 1, 0, len(self.pu0) - 1)
+        return np.minimum(self.u0[k] + (pu - self.pu0[k]) / self.prate[k], self.u1[k])
+
+    def segment_at(self, u: np.ndarray) -> np.ndarray:
+        """Index of the programmed segment at each curve parameter u (the last one starting at or before it;
+        a segment of zero length, a dwell, owns no u)."""
+        pu = self.programmed_u(u)
+        return np.clip(np.searchsorted(self.seg_u0, pu, side="right") - 1, 0, len(self.seg_u0) - 1)
+
+    def evaluate(self, u, order: int = 0, index: np.ndarray | None = None) -> list[np.ndarray]:
+        """[p, p', ..., p^(order)] at the parameters u, each (len(u), 3); ``index``: their intervals if known."""
+        u = np.asarray(u, dtype=float).reshape(-1)
+        k = self.interval_at(u) if index is None else np.asarray(index)
+        is_arc = self.kind[k] == ARC
+        if not is_arc.any():
+            return self._poly(u, k, order)
+        out = [np.empty((len(u), 3)) for _ in range(order + 1)]
+        poly = np.flatnonzero(~is_arc)
+        if len(poly):
+            for o, values in zip(out, self._poly(u[poly], k[poly], order)):
+                o[poly] = values
+        arc = np.flatnonzero(is_arc)
+        kk = k[arc]
+        x = u[arc] - self.u0[kk]
+        phi = self.phi0[kk] + self.dphi[kk] * x
+        r, d = self.radius[kk, None], self.dphi[kk, None]
+        cos, sin = np.cos(phi)[:, None], np.sin(phi)[:, None]
+        e1, e2 = self.e1[kk], self.e2[kk]
+        out[0][arc] = self.centre[kk] + r * (cos * e1 + sin * e2) + (self.rise[kk] * x)[:, None] * self.w[kk]
+        if order >= 1:
+            out[1][arc] = r * d * (-sin * e1 + cos * e2) + self.rise[kk, None] * self.w[kk]
+        if order >= 2:
+            out[2][arc] = -r * d**2 * (cos * e1 + sin * e2)
+        if order >= 3:
+            out[3][arc] = r * d**3 * (sin * e1 - cos * e2)
+        return out
+
+    def _poly(self, u: np.ndarray, k: np.ndarray, order: int) -> list[np.ndarray]:
+        x = (u - self.u0[k])[:, None]
+        c0, c1, c2, c3 = (self.coef[:, m][k] for m in range(4))
+        out = [c0 + x * (c1 + x * (c2 + x * c3))]
+        if order >= 1:
+            out.append(c1 + x * (2.0 * c2 + x * (3.0 * c3)))
+        if order >= 2:
+            out.append(2.0 * c2 + (6.0 * x) * c3)
+        if order >= 3:
+            out.append(6.0 * c3)
+        return out
+
+    def points(self, u) -> np.ndarray:
+        return self.evaluate(u, 0)[0]
+
+
+class CurveBuilder:
+    """Collects intervals by the stretch of the programmed path they stand for; ``build`` orders them and
+    lays the curve parameter out continuously."""
+
+    _VEC = ("centre", "e1", "e2", "w")
+    _SCALAR = ("radius", "phi0", "dphi", "rise")
+
+    def __init__(self):
+        self.chunks: list[dict] = []
+
+    def polys(self, pu_breaks, coef, widths=None) -> None:
+        """Consecutive polynomial intervals over programmed stretches ``pu_breaks`` (n + 1,), coefficients
+        (n, 4, 3) in powers of the curve parameter from each interval's start; ``widths``: their lengths
+        in curve parameter (default: the programmed stretches' lengths)."""
+        pu_breaks = np.asarray(pu_breaks, dtype=float)
+        coef = np.asarray(coef, dtype=float).reshape(-1, 4, 3)
+        n = len(coef)
+        width = np.diff(pu_breaks) if widths is None else np.asarray(widths, dtype=float)
+        chunk = {"pu0": pu_breaks[:-1], "pu1": pu_breaks[1:], "width": width,
+                 "kind": np.full(n, POLY, dtype=np.int8), "coef": coef}
+        chunk.update({k: np.zeros((n, 3)) for k in self._VEC})
+        chunk.update({k: np.zeros(n) for k in self._SCALAR})
+        self.chunks.append(chunk)
+
+    def line(self, pu0: float, pu1: float, start, direction) -> None:
+        """A straight piece from ``start`` along unit ``direction`` over the programmed stretch [pu0, pu1]."""
+        coef = np.zeros((1, 4, 3))
+        coef[0, 0], coef[0, 1] = start, direction
+        self.polys([pu0, pu1], coef)
+
+    def arcs(self, pu0, pu1, width, centre, e1, e2, w, radius, phi0, dphi, rise) -> None:
+        """Arc intervals standing for programmed stretches [pu0, pu1], ``width`` mm of curve parameter each
+        (their arc length); phi and rise per mm of curve parameter. Arrays over rows; see PlannedCurve."""
+        pu0 = np.atleast_1d(np.asarray(pu0, dtype=float))
+        n = len(pu0)
+        chunk = {"pu0": pu0, "pu1": np.broadcast_to(np.asarray(pu1, dtype=float), (n,)).copy(),
+                 "width": np.broadcast_to(np.asarray(width, dtype=float), (n,)).copy(),
+                 "kind": np.full(n, ARC, dtype=np.int8), "coef": np.zeros((n, 4, 3))}
+        for name, value in zip(self._VEC, (centre, e1, e2, w)):
+            chunk[name] = np.broadcast_to(np.asarray(value, dtype=float), (n, 3)).copy()
+        for name, value in zip(self._SCALAR, (radius, phi0, dphi, rise)):
+            chunk[name] = np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+        self.chunks.append(chunk)
+
+    def build(self, seg_u0) -> PlannedCurve:
+        cat = {key: np.concatenate([c[key] for c in self.chunks]) for key in self.chunks[0]}
+        order = np.argsort(cat["pu0"], kind="stable")
+        order = order[cat["width"][order] > 0]
+        width = cat["width"][order]
+        u1 = np.cumsum(width)
+        u0 = u1 - width
+        fields = {key: cat[key][order] for key in ("kind", "coef", *self._VEC, *self._SCALAR)}
+        pu0, pu1 = cat["pu0"][order], cat["pu1"][order]
+        return PlannedCurve(u0=u0, u1=u1, pu0=pu0, prate=(pu1 - pu0) / width, seg_u0=np.asarray(seg_u0, dtype=float),
+                            **fields)

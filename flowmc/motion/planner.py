@@ -1,0 +1,83 @@
+"""The look-ahead planner for real programs: smooth within the tolerance, then the fastest per-axis time law.
+
+``plan_smooth`` = flowmc.motion.smoothing (corners and runs of short segments within the tolerance:
+tangent-continuous for the trapezoid profile, curvature-continuous for the jerk-limited one) +
+flowmc.motion.timelaw (per-axis velocity, acceleration and, for ``profile="scurve"``, jerk limits
+along the curve; the whole program at once, so "look-ahead" is the entire program) + sampling at
+t = kT. The tool is on the smoothed curve at every setpoint; every setpoint is tagged with the
+programmed segment it is on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from flowmc.errors import PlanningError
+from flowmc.motion.limits import PathLimits
+from flowmc.motion.machine import Machine
+from flowmc.motion.path import Path
+from flowmc.motion.pieces import _check_axes
+from flowmc.motion.signals import path_signals, segment_start_times
+from flowmc.motion.smoothing import Smoothed, smooth_path
+from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law
+from flowmc.motion.trajectory import Trajectory
+
+__all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
+
+PROFILES = ("trapezoid", "scurve")
+
+
+@dataclass(frozen=True, eq=False)
+class SmoothPlan:
+    """A planned program: setpoints, the curve parameter u of each, and how it was smoothed and timed.
+
+    ``corner_times`` is empty: every corner is smoothed (or stopped at), none is passed sharply.
+    """
+
+    trajectory: Trajectory
+    u: np.ndarray
+    smoothed: Smoothed
+    law: TimeLaw
+    corner_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def cycle_time(self) -> float:
+        return self.trajectory.duration
+
+    @property
+    def jerk_window(self) -> float:
+        """Tj of the jerk-limiting filter (0 for trapezoid plans)."""
+        return self.law.window
+
+
+def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
+                profile: Literal["trapezoid", "scurve"] = "trapezoid") -> SmoothPlan:
+    """Plan ``path`` on ``machine`` with corners and short-segment runs smoothed within ``tolerance`` mm.
+
+    PlanningError names the segment for bad input (gaps, feeds, axes the machine lacks).
+    """
+    if profile not in PROFILES:
+        raise PlanningError(f"unknown profile {profile!r}; choose one of {', '.join(PROFILES)}", where="planner")
+    lim = PathLimits.of(machine)
+    jerk = profile == "scurve"
+    _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
+    sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
+    curve = sm.curve
+
+    def feed_of_u(u):
+        return sm.seg_feed[curve.segment_at(u)]
+
+    law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, feed_of_u, lim, jerk=jerk)
+    u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
+    pos = curve.points(u)
+    pos[0], pos[-1] = path.start, path.end
+    tags = np.where(dwell_seg >= 0, dwell_seg, curve.segment_at(u))
+    tags = np.maximum.accumulate(tags)
+    cols = list(lim.cols)
+    traj = Trajectory(pos[:, cols], machine.period, tags, axes=lim.axes,
+                      signals=path_signals(path, segment_start_times(tags, machine.period, len(path))),
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
+    return SmoothPlan(traj, u, sm, law)

@@ -1,0 +1,719 @@
+"""Tolerance-bounded smoothing of a program: corners and runs of short segments, within the tolerance.
+
+Why: a controller that rounds each corner on its own, using at most half of each short segment,
+crawls through CAM code made of thousands of short lines; LinuxCNC's G64 P Q merges and smooths
+across many segments. Here the smoothing works on *runs*, not corners:
+
+1. Every junction that is not smooth enough for the profile gets a zone: how far along the path,
+   on each side, a curve within the tolerance would need to turn (the tangent-arc trim
+   ``R tan(alpha/2)`` with ``R (1/cos(alpha/2) - 1) = tol``; longer for curvature-continuous joins,
+   and ``sqrt(3 tol / dkappa)`` for a curvature jump alone).
+2. Zones that overlap (a segment shorter than the two zones at its ends) merge into one run, so a
+   run spans as many short segments as it needs, across corners and arcs alike.
+3. A lone corner between two lines, when tangent continuity is enough (trapezoid profiles), is
+   rounded by the per-axis time-optimal blend, a parabola (``_corner_parabolas``): with every axis
+   held to its own acceleration limit it passes a right angle about 1.5 times as fast as the
+   tangent arc within the same tolerance (LinuxCNC 2.7+ blends by tangent arcs, Ellenberg). Every other run is replaced
+   by a cubic B-spline fitted to the programmed path over the run, with the position, tangent and
+   curvature of the path at both ends of the run fixed, so the result is curvature-continuous (G2)
+   where it joins the rest of the path and inside.
+
+The fit is a penalised least-squares B-spline (a P-spline: Eilers and Marx, "Flexible smoothing with
+B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of
+the control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or,
+for jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of
+curvature: what per-axis jerk pays for). The tolerance is held as an L-infinity bound by
+iteratively re-weighting the data points that stray (the approach to approximation within a given
+tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4, with a smoothing penalty
+instead of knot insertion); it follows the global micro-segment smoothing of CNC tool paths by
+curvature-continuous splines, as in Erkorkmaz and Altintas, "High speed CNC system design. Part I",
+Int. J. Machine Tools & Manufacture 41 (2001), and Yang and Yau / Bi et al. on G01 fitting within a
+chord tolerance.
+
+The spline is parameterised by the programmed path's arc length over the run, and every data point
+q(u) of the path is held within the tolerance of the curve point p(u) at the same u. That bound
+works both ways: every point of the curve is within the tolerance of the path (of q at its u) and
+every point of the path within the tolerance of the curve. Between data points the bound grows by
+at most |p''| du^2 / 8, which the data spacing keeps negligible.
+
+A run whose fit does not meet the tolerance within the iteration budget is not smoothed: the
+planner stops at its corners (reported in ``Smoothed.failed``; none of the benchmark programs needs it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+from scipy import sparse
+from scipy.interpolate import BSpline, CubicSpline
+from scipy.linalg import solveh_banded
+from scipy.ndimage import uniform_filter1d
+
+from flowmc.errors import PlanningError
+from flowmc.motion.curve import POLY, CurveBuilder, PlannedCurve
+from flowmc.motion.limits import PathLimits, segment_feed
+from flowmc.motion.path import PLANES, Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, describe_segment
+from flowmc.motion.pieces import REVERSAL, corner_angle
+from flowmc.motion.ranges import window_max
+
+__all__ = ["Smoothed", "smooth_path", "raw_curve"]
+
+_EPS_LEN = 1e-9  # mm: shorter segments are dropped
+_CURVE_STEP = 1.0  # mm: tabulated curves (ellipse, NURBS) become cubic splines with knots this far apart at most
+_G2_STRETCH = 2.0  # a curvature-continuous corner needs this many times the tangent arc's trim
+_FLAT = 0.002  # a curve whose normal acceleration at full speed is this share of amax counts as straight
+_SHARP = math.radians(30.0)  # corners turning more than this are fitted on their own, with finer knots
+_FIT_ITER = 16
+_FIT_SETTLE = 6  # iterations that may also smooth more where the tolerance is met with room to spare
+_SPARE = 0.6
+_RELAX = 1.6
+_MIN_SPANS = 10  # a run, however short, has room to turn: six of its control points are held by its ends
+_END_FIT = 2.0  # mm of programmed path a free run end takes its direction from
+_KNOT_TOL = 2.0  # least knot spacing, in tolerances
+_KNOT_SEGMENT = 0.4  # knot spacing in a run's typical programmed segment lengths
+_KNOT_MAX = 10.0  # most knot spacing, in tolerances
+_REFINE_KNOTS = 2  # times a run that misses the tolerance is fitted again with knots twice as dense
+_PARAM_PASSES = 3  # refits with the data re-parameterised by arc length along the fitted curve
+#: The penalty's difference stencils: second differences ~ the integral of |p''|^2 (bending; for
+#: acceleration limits), third ~ of |p'''|^2 (the rate of change of curvature; for jerk limits).
+_STENCILS = {2: np.array([1.0, -2.0, 1.0]), 3: np.array([1.0, -3.0, 3.0, -1.0])}
+_ELL = 100.0  # longest smoothing length in knot spans
+_ELL_SEGMENTS = 1.5  # initial smoothing length in programmed segment lengths
+_ELL_TOL = 20.0  # and at least this many tolerances: details below the tolerance are smoothed away
+_BLUR = 41  # control points over which the smoothing's local scale is evened out
+_REACH = 2.0  # smoothing lengths either side of a stray point over which smoothing is reduced
+
+
+@dataclass(frozen=True, eq=False)
+class Smoothed:
+    """The curve to plan along and what the time law needs besides it.
+
+    ``stop_u``: where the tool must be at rest (program start and end, tool or spindle changes,
+    dwells, reversals, corners of runs that could not be fitted), with ``stop_dwell`` seconds to wait
+    and ``stop_segment`` the dwell segment that owns the wait (-1 for none). ``seg_feed``: each
+    programmed segment's path-speed cap. Counts: ``blends`` tangent-arc corners, ``fitted`` spline
+    runs, ``failed`` runs left unsmoothed; ``deviation`` the largest distance between a fitted curve
+    and the programmed path (both ways, see the module docstring).
+    """
+
+    curve: PlannedCurve
+    stop_u: np.ndarray
+    stop_dwell: np.ndarray
+    stop_segment: np.ndarray
+    seg_feed: np.ndarray
+    blends: int
+    fitted: int
+    failed: int
+    deviation: float
+
+
+# ---------------------------------------------------------------- the programmed path as a curve
+
+@dataclass
+class _Elements:
+    """The path's moving segments as curve stretches, in order: segment index, u range, and the unit tangent
+    and curvature vector at each end."""
+
+    seg: np.ndarray
+    u0: np.ndarray
+    u1: np.ndarray
+    is_line: np.ndarray
+    t0: np.ndarray
+    t1: np.ndarray
+    k0: np.ndarray
+    k1: np.ndarray
+
+
+def _unit_and_curvature(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    speed = np.linalg.norm(d1, axis=1, keepdims=True)
+    t = d1 / np.maximum(speed, 1e-300)
+    normal = d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t
+    return t, normal / np.maximum(speed, 1e-300) ** 2
+
+
+def raw_curve(path: Path) -> tuple[PlannedCurve, _Elements]:
+    """The programmed path as a PlannedCurve (lines, arcs, tabulated curves as cubic splines), unsmoothed."""
+    segs = path.segments
+    lengths = np.array([0.0 if isinstance(s, Dwell) else s.length for s in segs])
+    lengths[lengths <= _EPS_LEN] = 0.0
+    seg_u0 = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
+    b = CurveBuilder()
+    first_row, rows = [], 0
+    moving = np.flatnonzero(lengths > 0)
+    for i in moving:
+        seg, u0, length = segs[i], float(seg_u0[i]), float(lengths[i])
+        first_row.append(rows)
+        if isinstance(seg, Line):
+            b.line(u0, u0 + length, seg.start, (seg.end - seg.start) / length)
+            rows += 1
+        elif isinstance(seg, Arc):
+            iu, iv = PLANES[seg.normal_axis][1]
+            eye = np.eye(3)
+            b.arcs(u0, u0 + length, length, seg.center, eye[iu], eye[iv], eye[seg.normal_axis], seg.radius,
+                   seg.start_angle, seg.sweep / length, seg.rise / length)
+            rows += 1
+        else:
+            assert isinstance(seg, (EllipseArc, NurbsCurve)), type(seg).__name__
+            n = int(max(4, math.ceil(length / min(_CURVE_STEP, 0.25 * seg.min_radius))))
+            s = np.linspace(0.0, length, n + 1)
+            tan = seg.tangent_at(np.array([0.0, length]))
+            cs = CubicSpline(s, seg.point_at(s), axis=0, bc_type=((1, tan[0]), (1, tan[1])))
+            b.polys(u0 + s, np.transpose(cs.c[::-1], (1, 0, 2)))
+            rows += n
+    if not len(moving):
+        raise PlanningError("the path does not move (every segment has zero length)", where="path")
+    curve = b.build(seg_u0)
+    first = np.asarray(first_row)
+    last = np.r_[first[1:] - 1, len(curve) - 1]
+    el_u0, el_u1 = seg_u0[moving], seg_u0[moving] + lengths[moving]
+    d_start = curve.evaluate(el_u0, 2, index=first)
+    d_end = curve.evaluate(el_u1, 2, index=last)
+    t0, k0 = _unit_and_curvature(d_start[1], d_start[2])
+    t1, k1 = _unit_and_curvature(d_end[1], d_end[2])
+    is_line = np.array([isinstance(segs[i], Line) for i in moving])
+    return curve, _Elements(moving, el_u0, el_u1, is_line, t0, t1, k0, k1)
+
+
+# ---------------------------------------------------------------- zones and runs
+
+def _stop_between(a, b) -> bool:
+    return a.tool_down != b.tool_down or a.spindle != b.spindle
+
+
+def _zone_wants(alpha, dkappa, tol: float, r_cap: float, g2: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Half-width of the zone each junction needs (0: none): for a tangent arc, and for a fitted spline
+    (curvature-continuous, so it needs more room; curvature jumps count when ``g2``)."""
+    half = 0.5 * alpha
+    one_minus_cos = 2.0 * np.sin(0.5 * half) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        radius = np.minimum(np.where(one_minus_cos > 0, tol * np.cos(half) / one_minus_cos, np.inf), r_cap)
+        arc = np.where(np.isfinite(radius), radius * np.tan(half), 0.0)
+        fit = _G2_STRETCH * arc
+        if g2:
+            jump = np.where(dkappa > 0, np.sqrt(3.0 * tol / np.where(dkappa > 0, dkappa, 1.0)), 0.0)
+            fit = np.maximum(fit, np.minimum(jump, r_cap * 0.05))
+    return arc, fit
+
+
+@dataclass
+class _Runs:
+    """Runs to smooth: u range, the junctions they cover, whether each is a lone line-line tangent arc."""
+
+    ua: np.ndarray
+    ub: np.ndarray
+    first: np.ndarray  # first junction (index into junction arrays)
+    last: np.ndarray
+    arc: np.ndarray
+    free_a: np.ndarray  # the run starts at a stop: only its position is held there
+    free_b: np.ndarray
+
+
+def _merge_zones(lo: np.ndarray, hi: np.ndarray, want: np.ndarray, barrier_before: np.ndarray):
+    """Group consecutive zones [lo, hi] that overlap (or nearly: a stub shorter than a quarter of the zone
+    next to it is not worth keeping) unless a barrier (a stop, or another run) lies between them.
+    Returns the index of each group's first and last zone."""
+    reach = np.maximum.accumulate(hi)  # how far the zones so far reach
+    ahead = np.minimum.accumulate(lo[::-1])[::-1]  # how far back the zones to come reach
+    new = np.r_[True, ahead[1:] >= reach[:-1] + 0.25 * want[1:]]
+    new[1:] |= barrier_before[1:] >= reach[:-1]
+    starts = np.flatnonzero(new)
+    return starts, np.r_[starts[1:] - 1, len(lo) - 1]
+
+
+def _find_runs(el: _Elements, need: np.ndarray, want: np.ndarray, alpha: np.ndarray, stop: np.ndarray,
+               g2: bool) -> _Runs:
+    """Group the junctions that need a zone (junction j is between elements j and j+1) into runs.
+
+    Each zone is the stretch of programmed path within ``want`` of its junction, through as many
+    segments as that takes, never across a stop. Sharp corners (turning more than _SHARP) are fitted
+    on their own, with finer knots: their zones merge only with each other's, take in any gentler
+    junction inside them and cut back the zones of gentler junctions around them. Gentle zones that
+    overlap merge into one run, however many segments that spans. A run that reaches a stop is free
+    there: the tool is at rest, nothing to join smoothly.
+    """
+    jn = np.flatnonzero(need)
+    if not len(jn):
+        z = np.zeros(0)
+        return _Runs(z, z, z.astype(int), z.astype(int), z.astype(bool), z.astype(bool), z.astype(bool))
+    at = el.u1[jn]  # where each junction is, in programmed arc length
+    stops = np.unique(np.r_[el.u0[0], el.u1[:-1][stop], el.u1[-1]])
+    prev_stop = stops[np.searchsorted(stops, at, side="right") - 1]
+    next_stop = stops[np.searchsorted(stops, at, side="left")]
+    lo = np.maximum(at - want[jn], prev_stop)
+    hi = np.minimum(at + want[jn], next_stop)
+    sharp = alpha[jn] >= _SHARP
+    runs = []  # (ua, ub, first junction, last junction, free_a, free_b)
+    sa = sb = np.zeros(0)
+    if sharp.any():
+        k = np.flatnonzero(sharp)
+        first, last = _merge_zones(lo[k], hi[k], want[jn[k]], prev_stop[k])
+        sa, sb = np.minimum.reduceat(lo[k], first), np.maximum.reduceat(hi[k], first)
+        runs += [(sa, sb, jn[k[first]], jn[k[last]], sa <= prev_stop[k[first]], sb >= next_stop[k[last]])]
+    gentle = np.flatnonzero(~sharp)
+    if len(sa):  # gentle junctions inside a sharp run are its; the others stop short of sharp runs
+        i = np.searchsorted(sa, at[gentle], side="right") - 1
+        inside = (i >= 0) & (at[gentle] < sb[np.maximum(i, 0)])
+        gentle = gentle[~inside]
+        i = np.searchsorted(sa, at[gentle], side="right") - 1
+        lo[gentle] = np.maximum(lo[gentle], np.where(i >= 0, sb[np.maximum(i, 0)], -np.inf))
+        hi[gentle] = np.minimum(hi[gentle], np.r_[sa, np.inf][i + 1])
+    if len(gentle):
+        barrier = prev_stop[gentle].copy()
+        if len(sa):
+            i = np.searchsorted(sb, at[gentle], side="right") - 1
+            barrier = np.maximum(barrier, np.where(i >= 0, sb[np.maximum(i, 0)], -np.inf))
+        first, last = _merge_zones(lo[gentle], hi[gentle], want[jn[gentle]], barrier)
+        ga, gb = np.minimum.reduceat(lo[gentle], first), np.maximum.reduceat(hi[gentle], first)
+        runs += [(ga, gb, jn[gentle[first]], jn[gentle[last]], ga <= prev_stop[gentle[first]],
+                  gb >= next_stop[gentle[last]])]
+    ua, ub, first, last, free_a, free_b = (np.concatenate(col) for col in zip(*runs))
+    order = np.argsort(ua, kind="stable")
+    ua, ub, first, last, free_a, free_b = ua[order], ub[order], first[order], last[order], free_a[order], free_b[order]
+    # a lone corner between two lines whose zone stays on them: a tangent arc will do (when G1 is enough)
+    lone_arc = ((first == last) & el.is_line[first] & el.is_line[first + 1] & (not g2) & ~free_a & ~free_b
+                & (ua >= el.u0[first]) & (ub <= el.u1[first + 1]))
+    return _Runs(ua, ub, first, last, lone_arc, free_a, free_b)
+
+
+# ---------------------------------------------------------------- fitting runs
+
+@dataclass
+class _Fit:
+    """Fitted runs: knots, control points (all runs stacked, run r from ``offset[r]``), whether each met the
+    tolerance, its largest deviation, and for each knot the programmed arc length it stands for."""
+
+    knots: list
+    coef: np.ndarray
+    offset: np.ndarray
+    ok: np.ndarray
+    deviation: np.ndarray
+    knot_pu: list
+
+
+class _RunFitter:
+    """Penalised least-squares cubic B-splines for many runs at once (one block-diagonal banded system).
+
+    Data: the programmed path over each run, sampled at a quarter of the knot spacing, plus its vertices.
+    Each data point has a fitting parameter t (first the programmed arc length; after a parameter
+    pass, the arc length along the fitted curve to the point's foot) and the curve is held within
+    the tolerance of it at that t.
+    """
+
+    def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2):
+        self.raw, self.ua, self.ub, self.tol = raw, ua, ub, tol
+        self.order, self.stencil = order, _STENCILS[order]
+        self.free_a, self.free_b = free_a, free_b
+        n_runs = len(ua)
+        length = ub - ua
+        self.spans = np.maximum(_MIN_SPANS, np.ceil(length / np.broadcast_to(h, length.shape)).astype(int))
+        self.ncp = self.spans + 3
+        self.offset = np.r_[0, np.cumsum(self.ncp)[:-1]]
+        self.total = int(self.ncp.sum())
+        per = 4 * self.spans
+        run_of = np.repeat(np.arange(n_runs), per + 1)
+        frac = np.concatenate([np.arange(p + 1) / p for p in per])
+        u = ua[run_of] + frac * length[run_of]
+        inner = raw.u0[(raw.u0 > ua.min()) & (raw.u0 < ub.max())]
+        r_in = np.searchsorted(ua, inner, side="right") - 1
+        keep = (r_in >= 0) & (inner < ub[np.clip(r_in, 0, None)])
+        u = np.concatenate([u, inner[keep]])
+        run_of = np.concatenate([run_of, r_in[keep]])
+        sort = np.lexsort((u, run_of))
+        self.pu, self.run_of = u[sort], run_of[sort]
+        self.q = raw.points(self.pu)
+        self.bounds = np.searchsorted(self.run_of, np.arange(n_runs + 1))
+        self.d_a = raw.evaluate(ua, 2, index=raw.interval_at(ua))
+        self.d_b = raw.evaluate(ub, 2, index=np.clip(raw.interval_at(ub - 1e-12), 0, None))
+        self.end_tangent = (self._data_tangent(ua, ub - ua, free_a, 1.0), self._data_tangent(ub, ub - ua, free_b, -1.0))
+        # smoothing length per data point: a few programmed segment lengths, enough to even out the
+        # kinks between them without reshaping the curve they describe
+        k_raw = raw.interval_at(self.pu)
+        self.seg_len = raw.u1[k_raw] - raw.u0[k_raw]
+        self.scale: np.ndarray | None = None
+
+    def _data_tangent(self, at: np.ndarray, length: np.ndarray, free: np.ndarray, way: float) -> np.ndarray:
+        """Unit tangent of the programmed path at run ends ``at`` (going into the run): the slope at the end of
+        a least-squares quadratic through the path over its first _END_FIT mm (or a quarter of the run)."""
+        out = np.zeros((len(at), 3))
+        x = np.linspace(0.0, 1.0, 17)
+        for r in np.flatnonzero(free):
+            span = min(_END_FIT, 0.25 * length[r])
+            pts = self.raw.points(at[r] + way * span * x)
+            coef = np.polynomial.polynomial.polyfit(span * x, pts, 2)
+            slope = way * coef[1]
+            out[r] = slope / max(float(np.linalg.norm(slope)), 1e-300)
+        return out
+
+    def _setup(self, t: np.ndarray, width: np.ndarray) -> None:
+        """Basis, fixed end control points and penalty for fitting parameters t over [ua, ua + width]."""
+        ua, spans, ncp, offset, total, run_of = self.ua, self.spans, self.ncp, self.offset, self.total, self.run_of
+        n_runs = len(ua)
+        hr = width / spans
+        self.hr, self.t = hr, t
+        self.knots = [np.r_[[a] * 3, np.linspace(a, a + w, s + 1), [a + w] * 3] for a, w, s in zip(ua, width, spans)]
+        rows, cols, vals = [], [], []
+        for r in range(n_runs):
+            lo, hi = self.bounds[r], self.bounds[r + 1]
+            dm = BSpline.design_matrix(np.clip(t[lo:hi], ua[r], ua[r] + width[r]), self.knots[r], 3).tocoo()
+            rows.append(dm.row + lo)
+            cols.append(dm.col + offset[r])
+            vals.append(dm.data)
+        self.design = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                        shape=(len(t), total))
+        # fixed control points: position, tangent and curvature of the path at both ends of each run
+        fixed = np.zeros(total, dtype=bool)
+        c_fixed = np.zeros((total, 3))
+        o, e = offset, offset + ncp - 1
+        h_r = hr[:, None]
+        d_a, d_b = self.d_a, self.d_b
+        c_fixed[o], c_fixed[o + 1], c_fixed[o + 2] = (d_a[0], d_a[0] + h_r * d_a[1] / 3.0,
+                                                      d_a[0] + h_r * d_a[1] + h_r**2 * d_a[2] / 3.0)
+        c_fixed[e], c_fixed[e - 1], c_fixed[e - 2] = (d_b[0], d_b[0] - h_r * d_b[1] / 3.0,
+                                                      d_b[0] - h_r * d_b[1] + h_r**2 * d_b[2] / 3.0)
+        # at a free end (a stop) the direction is the data's own there, from a quadratic through its first
+        # few millimetres: a spline left free to turn at its end strays there
+        c_fixed[o + 1] = np.where(self.free_a[:, None], d_a[0] + h_r * self.end_tangent[0] / 3.0, c_fixed[o + 1])
+        c_fixed[e - 1] = np.where(self.free_b[:, None], d_b[0] - h_r * self.end_tangent[1] / 3.0, c_fixed[e - 1])
+        fixed[np.concatenate([o, e, o + 1, e - 1, (o + 2)[~self.free_a], (e - 2)[~self.free_b]])] = True
+        self.fixed, self.c_fixed = fixed, c_fixed
+        # second-difference penalty rows: sum |D2 c|^2 ~ h^3 * integral |p''|^2, so mu = l^4 / (delta h^3)
+        # makes the objective (1/delta) (integral r^2 + l^4 integral |p''|^2)
+        self.diff_start = np.concatenate([offset[r] + np.arange(ncp[r] - self.order) for r in range(n_runs)])
+        self.diff_run = np.repeat(np.arange(n_runs), ncp - self.order)
+        self.span_of = np.clip(np.floor((t - ua[run_of]) / hr[run_of]).astype(int), 0, spans[run_of] - 1) + offset[run_of]
+        per_cp: np.ndarray = np.bincount(self.span_of, weights=np.minimum(self.seg_len, _ELL * hr[run_of]), minlength=total)
+        per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
+        per_cp = uniform_filter1d(per_cp, size=41)
+        hd = hr[self.diff_run]
+        ell = np.clip(np.maximum(_ELL_SEGMENTS * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
+        self.mu = ell**(2 * self.order) / (0.25 * hd * hd**(2 * self.order - 1))
+        self.floor = (hd / ell) ** (2 * self.order)
+        reach = np.ceil(_REACH * ell / hd).astype(int)
+        first_cp, last_cp = offset[self.diff_run], offset[self.diff_run] + ncp[self.diff_run] - 1
+        self.reach_lo = np.maximum(self.diff_start + 1 - reach, first_cp)
+        self.reach_hi = np.minimum(self.diff_start + 1 + reach, last_cp)
+        if self.scale is None:
+            self.scale = np.ones(len(self.diff_start))
+        data_part = (self.design.T @ self.design).tocsr()
+        self.data_diag = [data_part.diagonal(k) for k in range(4)]
+        self.rhs_data = self.design.T @ self.q
+
+    def _solve(self) -> np.ndarray:
+        """The banded normal equations (upper form for solveh_banded), assembled directly: the data part's
+        four diagonals plus each penalty row's w * d^T d, d its difference stencil on its control points."""
+        total, fixed = self.total, self.fixed
+        w = self.mu * self.scale
+        c = self.diff_start
+        diag = [d.copy() for d in self.data_diag]
+        stencil = self.stencil
+        for p_ in range(len(stencil)):
+            for q_ in range(p_, len(stencil)):
+                diag[q_ - p_] += np.bincount(c + p_, weights=stencil[p_] * stencil[q_] * w,
+                                             minlength=total)[:total - (q_ - p_)]
+        # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
+        x = self.c_fixed * fixed[:, None]
+        rhs = self.rhs_data - diag[0][:, None] * x
+        for k in range(1, 4):
+            d = diag[k][:, None]
+            rhs[:-k] -= d * x[k:]
+            rhs[k:] -= d * x[:-k]
+        free = ~fixed
+        ab = np.zeros((4, total))
+        for k in range(4):
+            ab[3 - k, k:] = diag[k] * (free[:total - k] & free[k:])
+        ab[3, fixed] = 1.0
+        rhs[fixed] = self.c_fixed[fixed]
+        return solveh_banded(ab, rhs, check_finite=False)
+
+    def _iterate(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Solve, then smooth less wherever the tolerance is not met and more wherever it is met with room to
+        spare, so the fit settles where it just keeps the tolerance. Each run keeps its last fit that met
+        it (or its last, if none did)."""
+        best = np.zeros((self.total, 3))
+        ok_any = np.zeros(len(self.ua), dtype=bool)
+        dev_best = np.full(len(self.ua), np.inf)
+        cp_run = np.repeat(np.arange(len(self.ua)), self.ncp)
+        for it in range(_FIT_ITER):
+            coef = self._solve()
+            resid = np.linalg.norm(self.design @ coef - self.q, axis=1)
+            dev = np.maximum.reduceat(resid, self.bounds[:-1])
+            ok = dev <= self.tol
+            take = (ok | ~ok_any)[cp_run]
+            best[take] = coef[take]
+            dev_best = np.where(ok | ~ok_any, dev, dev_best)
+            ok_any |= ok
+            if ok.all() and it >= _FIT_SETTLE:
+                break
+            over = np.zeros(self.total)
+            for j in range(4):
+                np.maximum.at(over, self.span_of + j, resid / self.tol)
+            row_over = window_max(over, self.reach_lo, self.reach_hi)
+            prev = self.scale
+            assert prev is not None  # set by _setup
+            scale = np.where(row_over > 1.0, prev / (1.2 * row_over**2), prev)
+            if it < _FIT_SETTLE:  # room to spare: smooth more again (up to where it started)
+                scale = np.where(row_over < _SPARE, np.minimum(scale * _RELAX, 1.0), scale)
+            # changed gently along the run: a step in smoothing makes a kink in the curve's parameter
+            scale = np.exp(np.minimum(uniform_filter1d(np.log(scale), size=_BLUR), np.log(scale)))
+            # never below the smoothing of one knot span: less only lets the parameter wander along the path
+            self.scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, prev, np.inf)), self.floor)
+        return best, ok_any, dev_best
+
+    def _arc_length_params(self, coef: np.ndarray, width: np.ndarray):
+        """Foot of each data point on the fitted curves (two Newton steps from its parameter), as arc length
+        along its curve; and each curve's length. None where the feet do not run forwards."""
+        t_new = np.empty_like(self.t)
+        lengths = np.empty(len(self.ua))
+        gl_x, gl_w = np.polynomial.legendre.leggauss(5)
+        for r in range(len(self.ua)):
+            lo, hi = self.bounds[r], self.bounds[r + 1]
+            a, w = self.ua[r], width[r]
+            spl = BSpline(self.knots[r], coef[self.offset[r]:self.offset[r] + self.ncp[r]], 3)
+            d1, d2 = spl.derivative(1), spl.derivative(2)
+            t = self.t[lo:hi].copy()
+            q = self.q[lo:hi]
+            for _ in range(2):
+                diff = spl(t) - q
+                p1, p2 = d1(t), d2(t)
+                den = np.einsum("ij,ij->i", p1, p1) + np.einsum("ij,ij->i", diff, p2)
+                t = np.clip(t - np.einsum("ij,ij->i", diff, p1) / np.where(den > 1e-12, den, 1.0), a, a + w)
+            t[0], t[-1] = a, a + w
+            if np.any(np.diff(t) < 0):
+                return None
+            # arc length at the feet: Gauss-Legendre on every stretch between consecutive feet
+            mid, half = 0.5 * (t[1:] + t[:-1]), 0.5 * np.diff(t)
+            nodes = mid[:, None] + half[:, None] * gl_x[None, :]
+            speed = np.linalg.norm(d1(nodes.ravel()), axis=1).reshape(nodes.shape)
+            s = np.concatenate([[0.0], np.cumsum(half * (speed @ gl_w))])
+            t_new[lo:hi] = a + s
+            lengths[r] = s[-1]
+        return t_new, lengths
+
+    def fit(self) -> _Fit:
+        """Fit, re-parameterise the data by arc length along the fit (the programmed arc length drifts from the
+        curve's wherever the fit cuts corners), fit again; each run keeps its last fit that met the
+        tolerance (or its first, when none did)."""
+        n_runs = len(self.ua)
+        width = self.ub - self.ua
+        t = self.pu.copy()
+        knots: list[np.ndarray] = [np.empty(0)] * n_runs
+        coefs: list[np.ndarray] = [np.empty((0, 3))] * n_runs
+        knot_pu: list[np.ndarray] = [np.empty(0)] * n_runs
+        ok_any = np.zeros(n_runs, dtype=bool)
+        dev_best = np.full(n_runs, np.inf)
+        for attempt in range(_PARAM_PASSES + 1):
+            self._setup(t, width)
+            coef, ok, dev = self._iterate()
+            take = ok | (~ok_any & (dev < dev_best))
+            for r in np.flatnonzero(take):
+                lo, hi = self.bounds[r], self.bounds[r + 1]
+                knots[r] = self.knots[r]
+                coefs[r] = coef[self.offset[r]:self.offset[r] + self.ncp[r]]
+                knot_pu[r] = np.interp(self.knots[r][3:-3], t[lo:hi], self.pu[lo:hi])
+                dev_best[r] = dev[r]
+            ok_any |= ok
+            if attempt == _PARAM_PASSES or ok_any.all():
+                break
+            moved = self._arc_length_params(coef, width)
+            if moved is None:
+                break
+            t, width = moved
+        return _Fit(knots, np.concatenate(coefs), self.offset, ok_any, dev_best, knot_pu)
+
+
+def _run_polys(fit: _Fit, r: int, ncp: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Knots, programmed arc length at each knot, and ascending power coefficients (n, 4, 3) of fitted run r."""
+    t = fit.knots[r]
+    c = fit.coef[fit.offset[r]:fit.offset[r] + ncp]
+    spl = BSpline(t, c, 3)
+    x = t[3:-3]
+    coef = np.stack([spl(x[:-1], nu=m) / math.factorial(m) for m in range(4)], axis=1)
+    return x, fit.knot_pu[r], coef
+
+
+# ---------------------------------------------------------------- corners between two lines
+
+def _corner_parabolas(corner, u_in, u_out, room, v_full, tol: float, limits: PathLimits):
+    """Round lone line-line corners by the per-axis time-optimal blend: a parabola.
+
+    Through a corner at speed v, the velocity must change by v (u_out - u_in); with each axis held to
+    its own amax, the fastest way is one constant acceleration vector, each axis at most at its limit,
+    for tau = v max_i |u_out_i - u_in_i| / amax_i: the path is then a parabola from v tau / 2 before the
+    corner to v tau / 2 after it (LinuxCNC's old parabolic blend, here sized per axis and by the
+    tolerance). Its point nearest the corner is v tau sin(alpha/2) / 4 from it, and no point of either
+    is further from the other, so the trim d = v tau / 2 may grow to 2 tol / sin(alpha/2); no larger
+    than what passing at full speed needs (v_full^2 m / 2, m = max_i |u_out_i - u_in_i| / amax_i), nor
+    than ``room``. For a right angle between two axes it passes about 1.5 times as fast as the tangent
+    arc within the same tolerance. Returns the trims and each parabola's coefficients (n, 4, 3) in
+    the curve parameter x in [0, 2d]: p = start + u_in x + (u_out - u_in) x^2 / (4 d).
+    """
+    du = u_out - u_in
+    half_sin = 0.5 * np.linalg.norm(du, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m = np.max(np.where(np.abs(du) > 0, np.abs(du) / limits.amax, 0.0), axis=1)
+        d = np.minimum(np.minimum(2.0 * tol / np.maximum(half_sin, 1e-300), 0.5 * v_full**2 * m), room)
+    coef = np.zeros((len(d), 4, 3))
+    coef[:, 0] = corner - u_in * d[:, None]
+    coef[:, 1] = u_in
+    coef[:, 2] = du / (4.0 * d[:, None])
+    return d, coef
+
+
+# ---------------------------------------------------------------- assembling the curve
+
+def _shift_poly(coef: np.ndarray, du: np.ndarray) -> np.ndarray:
+    """Coefficients of the same cubics re-expanded about u0 + du (rows of (n, 4, 3))."""
+    c0, c1, c2, c3 = (coef[:, m] for m in range(4))
+    d = du[:, None]
+    return np.stack([c0 + d * (c1 + d * (c2 + d * c3)), c1 + d * (2 * c2 + 3 * d * c3), c2 + 3 * d * c3, c3], axis=1)
+
+
+def _copy_outside(raw: PlannedCurve, b: CurveBuilder, cut_a: np.ndarray, cut_b: np.ndarray) -> None:
+    """Copy the raw curve's intervals outside the cut stretches [cut_a, cut_b) (sorted, disjoint), trimmed."""
+    # pieces of every raw interval that lie outside all cuts
+    edges = np.unique(np.r_[raw.u0, raw.u1[-1:], cut_a, cut_b])
+    lo, hi = edges[:-1], edges[1:]
+    mid = 0.5 * (lo + hi)
+    inside = np.searchsorted(cut_a, mid, side="right") - 1
+    in_cut = (inside >= 0) & (mid < np.r_[cut_b, -np.inf][np.where(inside >= 0, inside, len(cut_b))])
+    keep = ~in_cut & (hi > lo)
+    lo, hi = lo[keep], hi[keep]
+    k = raw.interval_at(0.5 * (lo + hi))
+    du = lo - raw.u0[k]
+    poly = raw.kind[k] == POLY
+    if poly.any():
+        kk = k[poly]
+        coef = _shift_poly(raw.coef[kk], du[poly])
+        for i in range(len(kk)):  # one chunk each: their breakpoints need not be contiguous
+            b.polys([lo[poly][i], hi[poly][i]], coef[i:i + 1])
+    arc = ~poly
+    if arc.any():
+        kk = k[arc]
+        d = du[arc]
+        centre = raw.centre[kk] + (raw.rise[kk] * d)[:, None] * raw.w[kk]
+        b.arcs(lo[arc], hi[arc], hi[arc] - lo[arc], centre, raw.e1[kk], raw.e2[kk],
+               raw.w[kk], raw.radius[kk], raw.phi0[kk] + raw.dphi[kk] * d, raw.dphi[kk], raw.rise[kk])
+
+
+def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity: int = 1) -> Smoothed:
+    """Smooth ``path`` within ``tolerance`` (mm): tangent-continuous joins (``continuity=1``, enough for
+    acceleration-limited profiles) or curvature-continuous ones (``continuity=2``, for jerk limits).
+
+    Raises PlanningError naming the segment for gaps, bad feeds, or motion on axes the machine lacks.
+    """
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
+    segs = path.segments
+    if not segs:
+        raise PlanningError("the path has no segments", where="path")
+    for i in path.gaps(1e-6):
+        raise PlanningError(
+            f"starts at {np.round(segs[i].start, 6).tolist()} but the segment before ends at "
+            f"{np.round(segs[i - 1].end, 6).tolist()}", where=describe_segment(i, segs[i].source))
+    seg_feed = np.array([math.inf if isinstance(s, Dwell) else segment_feed(s, describe_segment(i, s.source))
+                         for i, s in enumerate(segs)])
+    raw, el = raw_curve(path)
+    g2 = continuity >= 2
+    period = limits.period
+    a_big = float(np.max(limits.amax[list(limits.cols)]))
+    v_big = float(np.max(limits.vmax[list(limits.cols)]))
+    tol_fit = tolerance - a_big * period**2 / 8.0  # the sampled chords' sagitta comes on top
+    if tol_fit <= 0:
+        raise PlanningError(f"tolerance {tolerance} mm is below the sampled chords' sagitta at this period",
+                            where="planner")
+    tol_fit *= 0.98
+
+    # junctions between consecutive elements
+    nj = len(el.seg) - 1
+    gap_stop = np.array([any(isinstance(segs[i], Dwell) or _stop_between(segs[i - 1], segs[i])
+                             for i in range(a + 1, b + 1)) for a, b in zip(el.seg[:-1], el.seg[1:])], dtype=bool)
+    alpha = corner_angle(el.t1[:-1], el.t0[1:]) if nj > 0 else np.zeros(0)
+    dkappa = np.linalg.norm(el.k0[1:] - el.k1[:-1], axis=1) if nj > 0 else np.zeros(0)
+    stop = gap_stop | (alpha >= REVERSAL)
+    a_min = float(np.min(limits.amax[list(limits.cols)]))
+    if g2:
+        j_min = float(np.min(limits.jmax[list(limits.cols)]))
+        need = (alpha > 2e-3 * j_min * period**2 / v_big) | (dkappa > 2e-3 * j_min * period / v_big**2)
+    else:
+        need = alpha > 2e-3 * a_min * period / v_big
+    need &= ~stop
+    r_cap = v_big**2 / (_FLAT * a_min)  # flatter than this costs nothing worth smoothing for
+    want_arc, want = _zone_wants(alpha, dkappa, tol_fit, r_cap, g2)
+    runs = _find_runs(el, need, want, alpha, stop, g2)
+    stop_extra = []
+    if g2:
+        # a lone sharp corner is cheaper to stop at than to pass on a curvature-continuous curve within the
+        # tolerance (whose curvature must rise and fall within a fraction of a millimetre: the jerk limit
+        # holds the speed there near zero anyway), so the jerk-limited profile stops there
+        lone = ((runs.first == runs.last) & (alpha[runs.first] >= _SHARP) & (runs.ua >= el.u0[runs.first])
+                & (runs.ub <= el.u1[runs.first + 1]))
+        stop_extra.append(el.u1[runs.first[lone]])
+        runs = _Runs(*(getattr(runs, f.name)[~lone] for f in fields(_Runs)))
+
+    b = CurveBuilder()
+    blends = np.flatnonzero(runs.arc)
+    if len(blends):
+        j = runs.first[blends]
+        room = np.minimum(el.u1[j] - runs.ua[blends], runs.ub[blends] - el.u0[j + 1])
+        v_full = np.minimum(np.minimum(seg_feed[el.seg[j]], seg_feed[el.seg[j + 1]]),
+                            np.minimum(limits.along(el.t1[j])[0], limits.along(el.t0[j + 1])[0]))
+        d, coef = _corner_parabolas(raw.points(el.u1[j]), el.t1[j], el.t0[j + 1], room, v_full, tol_fit, limits)
+        runs.ua[blends], runs.ub[blends] = el.u1[j] - d, el.u0[j + 1] + d
+        for ua, ub, c in zip(runs.ua[blends], runs.ub[blends], coef):
+            b.polys([ua, ub], c[None])
+    fits = np.flatnonzero(~runs.arc)
+    failed = 0
+    deviation = 0.0
+    if len(fits):
+        # knots a fraction of the run's typical segment apart (chords of a gentle curve need fewer), no
+        # closer than _KNOT_TOL tolerances and no further apart than _KNOT_MAX
+        widths = raw.u1 - raw.u0
+        lo_i = np.searchsorted(raw.u1, runs.ua[fits], side="right")
+        hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
+        typical = np.array([np.median(widths[a:max(b, a + 1)]) for a, b in zip(lo_i, hi_i)])
+        h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
+        pending, devs = fits, []
+        for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
+            fit = _RunFitter(raw, runs.ua[pending], runs.ub[pending], runs.free_a[pending], runs.free_b[pending],
+                             tol_fit, h[np.searchsorted(fits, pending)], order=3 if g2 else 2).fit()
+            ncp = np.diff(np.r_[fit.offset, len(fit.coef)])
+            for i in range(len(pending)):
+                if fit.ok[i]:
+                    x, pu, coef = _run_polys(fit, i, ncp[i])
+                    b.polys(pu, coef, widths=np.diff(x))
+                    devs.append(fit.deviation[i])
+            pending = pending[~fit.ok]
+            h *= 0.5
+            if not len(pending):
+                break
+        for r in pending:  # left as programmed: the tool stops at every corner inside
+            failed += 1
+            inside = (el.u1[:-1] > runs.ua[r]) & (el.u1[:-1] < runs.ub[r])
+            stop_extra.append(el.u1[:-1][inside])
+            runs.ua[r] = runs.ub[r] = np.nan
+        deviation = float(max(devs)) if devs else 0.0
+    keep = np.isfinite(runs.ua)
+    _copy_outside(raw, b, runs.ua[keep], runs.ub[keep])
+    curve = b.build(raw.seg_u0)
+
+    # stops: start, end, stop junctions, unsmoothed corners; dwells wait where they are
+    lengths = np.array([0.0 if isinstance(s, Dwell) else s.length for s in segs])
+    lengths[lengths <= _EPS_LEN] = 0.0
+    seg_u0 = raw.seg_u0
+    stop_u = [np.array([0.0, raw.length]), el.u1[:-1][stop], el.u1[:-1][~need & ~stop & (alpha > 0)
+                                                                           & _unsmoothable(alpha, period, a_min, v_big)]]
+    stop_u += stop_extra
+    dwell_idx = np.array([i for i, s in enumerate(segs) if isinstance(s, Dwell)], dtype=int)
+    su = curve.curve_u(np.concatenate(stop_u + [seg_u0[dwell_idx]]))
+    sd = np.concatenate([np.zeros(len(su) - len(dwell_idx)), [segs[i].seconds for i in dwell_idx]])
+    ss = np.concatenate([np.full(len(su) - len(dwell_idx), -1), dwell_idx])
+    order = np.lexsort((ss, su))
+    return Smoothed(curve, su[order], sd[order], ss[order], seg_feed, len(blends), len(fits) - failed, failed,
+                    deviation)
+
+
+def _unsmoothable(alpha, period, a_min, v_big) -> np.ndarray:
+    """Junctions left sharp because their turn is negligible at full speed still pass at speed; none stop."""
+    return np.zeros_like(alpha, dtype=bool)

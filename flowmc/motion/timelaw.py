@@ -1,0 +1,566 @@
+"""The time law along a planned curve: how fast to go where, under per-axis limits, sampled at t = kT.
+
+Everything is geometric, so how the curve happens to be parameterised does not matter: with s the
+arc length, T = dp/ds the unit tangent, K = d2p/ds2 the curvature vector and P3 = d3p/ds3, axis i
+moves with
+    velocity T_i v,   acceleration T_i a + K_i v^2,   jerk T_i da/dt + 3 K_i v a + P3_i v^3,
+where v = ds/dt is the path speed and a = dv/dt.
+
+Phase plane. On a grid s_0 < s_1 < ... the state is y = v^2 and the path acceleration is constant on
+each interval, so y is linear in s there (y_{k+1} = y_k + 2 a_k (s_{k+1} - s_k)): the discretisation
+of time-optimal path parameterisation in Verscheure et al., "Time-optimal path tracking for robots:
+a convex optimization approach" (IEEE TAC 54, 2009) and Pham and Pham's TOPP-RA (IEEE T-RO 34, 2018).
+Sampled at t = kT it is exact: every setpoint is on the curve.
+
+Limits are kept per axis. The coupling of the normal and the tangential parts (K_i v^2 and T_i a)
+is split per interval: a speed cap Y_k leaves the tangential budget
+    |a| <= A_k = min_i (amax_i - |K_i| Y_k) / |T_i|
+whatever the speed below the cap. With caps and budgets fixed, the fastest profile is a backward pass
+(y_k <= y_{k+1} + 2 A_k ds_k) and a forward pass (y_{k+1} <= y_k + 2 A_k ds_k), each a running minimum
+of a cumulative sum: fully vectorised. Which cap to use where is settled by iteration: the scans
+with budgets taken at the speed of a given profile form an antitone map, so its iterates alternate
+around its fixed point; every second iterate used budgets taken at a faster profile and is
+therefore feasible, and they increase towards the fixed point (within about 1 % of TOPP-RA on the
+same curve in benchmarks/planning.py).
+
+Jerk (``jerk=True``). The profile above, with its budget shared with the jerk terms, is filtered by
+a moving average of length Tj = 2 max_i(amax_i / jmax_i) over the arc length: s_f(t) = (1/Tj) times
+the integral of s over [t - Tj, t] (the FIR jerk limitation of Biagiotti and Melchiorri, "FIR filters
+for online trajectory planning with time- and frequency-domain specifications", Control Eng.
+Practice 20, 2012; applied to the arc length, so the tool stays exactly on the curve). Then
+d3s_f/dt3 = (a(t) - a(t - Tj)) / Tj, at most 2 A / Tj. The curvature terms are capped ahead of the
+filter: the speed so that |K_i| v^2 and |P3_i| v^3 leave room, and A so that 3 |K_i| v A fits too;
+because the filter averages over a window, every cap is taken as the smallest within the stretch the
+window can span there (from a profile at least as fast), and the tool rests for Tj wherever the
+profile stops, so it comes to rest exactly there. The curve must be curvature-continuous for this
+(flowmc.motion.smoothing's continuity=2). Every claim is checked from sampled setpoints in the tests.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+import flowmc.budget as budget
+from flowmc.errors import PlanningError
+from flowmc.motion.curve import ARC, POLY, PlannedCurve
+from flowmc.motion.limits import PathLimits
+from flowmc.motion.ranges import window_max, window_min
+
+__all__ = ["TimeLaw", "plan_time_law", "sample_time_law"]
+
+_RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
+_ROUNDS = 20
+_REACH_PROFILE_ROUNDS = 4
+_CONVERGED = 2e-3  # stop when the feasible profile is within this share of the top speed^2 of the one above
+_LINE_STEP = 0.5  # mm of u between grid nodes on lines (a peak between nodes is cut flat)
+_LINE_STEP_JERK = 0.25  # finer for jerk-limited profiles: their plateaus start and end at nodes
+_ARC_STEP_RAD = math.radians(3.0)
+_POLY_SUB = 2  # grid intervals per spline interval
+_REFINE = 6  # rounds of halving grid intervals where the curve turns more than _TURN_STEP (rad) ...
+_TURN_STEP = math.radians(2.0)
+_KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
+_SWING_ROUNDS = 3
+_PLATEAU_ROUNDS = 8
+_REACH_ROUNDS = 2
+_JERK_SHARE = 0.97  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
+_GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
+
+
+@dataclass(frozen=True, eq=False)
+class TimeLaw:
+    """The profile at the grid nodes (curve parameter ``u``, arc length ``s``, path speed squared ``y``),
+    the path acceleration on each interval, stops (node, wait, dwell segment) and the filter length."""
+
+    u: np.ndarray
+    s: np.ndarray
+    y: np.ndarray
+    accel: np.ndarray
+    speed_u: np.ndarray  # ds/du at the nodes, for mapping arc length back to u
+    stop_node: np.ndarray
+    stop_wait: np.ndarray
+    stop_segment: np.ndarray
+    window: float  # Tj of the moving average; 0 for none
+    period: float  # the sampling period T
+
+    def u_at(self, s: np.ndarray, curve: PlannedCurve) -> np.ndarray:
+        """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends),
+        then two Newton steps on the arc length from the interval's start (3-point Gauss-Legendre, exact to
+        rounding over intervals this short)."""
+        s = np.clip(np.asarray(s, dtype=float).reshape(-1), self.s[0], self.s[-1])
+        if not len(s):
+            return s.copy()
+        k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
+        h = self.s[k + 1] - self.s[k]
+        x = np.where(h > 0, (s - self.s[k]) / np.where(h > 0, h, 1.0), 0.0)
+        u0, u1 = self.u[k], self.u[k + 1]
+        m0, m1 = h / self.speed_u[k], h / self.speed_u[k + 1]  # du/dx at the ends
+        h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
+        u = np.clip(h00 * u0 + h10 * m0 + h01 * u1 + h11 * m1, u0, u1)
+        index = curve.interval_at(0.5 * (u0 + u1))
+        for _ in range(2):
+            half = 0.5 * (u - u0)
+            nodes = (0.5 * (u + u0))[:, None] + half[:, None] * _GL3_X[None, :]
+            d1 = curve.evaluate(np.c_[nodes, u].ravel(), 1, index=np.repeat(index, len(_GL3_X) + 1))[1]
+            speed = np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(len(u), -1)
+            err = self.s[k] + half * (speed[:, :-1] @ _GL3_W) - s
+            u = np.clip(u - err / np.maximum(speed[:, -1], 1e-12), u0, u1)
+        return u
+
+
+def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarray:
+    """Nodes: every interval boundary and stop, lines every _LINE_STEP, arcs every few degrees, splines
+    halved; and a node between any two stops, so no interval starts and ends at rest."""
+    parts = [curve.u0, curve.u1[-1:], stop_u]
+    width = curve.u1 - curve.u0
+    line = (curve.kind == POLY) & np.all(curve.coef[:, 2:] == 0.0, axis=(1, 2))
+    arc = curve.kind == ARC
+    n = np.where(line, np.ceil(width / line_step),
+                 np.where(arc, np.ceil(np.abs(curve.dphi) * width / _ARC_STEP_RAD), _POLY_SUB)).astype(int)
+    n = np.maximum(n, 1)
+    sub = np.flatnonzero(n > 1)
+    if len(sub):
+        reps = n[sub] - 1
+        k = np.repeat(sub, reps)
+        parts.append(curve.u0[k] + width[k] * _ranks(reps) / n[k])
+    u = np.unique(np.concatenate(parts))
+    # where the curve turns or its curvature changes quickly, halve the intervals until it does not
+    for _ in range(_REFINE):
+        mid = 0.5 * (u[:-1] + u[1:])
+        k = curve.interval_at(mid)
+        _, d1, d2 = curve.evaluate(np.r_[u[:-1], u[1:]], 2, index=np.r_[k, k])
+        sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
+        tan = d1 / sp[:, None]
+        kap = np.linalg.norm(np.cross(d1, d2), axis=1) / sp**3
+        m = len(k)
+        turn = np.linalg.norm(tan[m:] - tan[:m], axis=1)
+        width = u[1:] - u[:-1]
+        change = np.abs(kap[m:] - kap[:m]) > _KAPPA_CHANGE * np.maximum(kap[m:], kap[:m])
+        split = ((turn > _TURN_STEP) | change) & (width > 1e-4)
+        if not split.any():
+            break
+        u = np.unique(np.r_[u, mid[split]])
+    is_stop = np.isin(u, stop_u)
+    both = np.flatnonzero(is_stop[:-1] & is_stop[1:])
+    if len(both):
+        u = np.unique(np.r_[u, 0.5 * (u[both] + u[both + 1])])
+    return u
+
+
+def _ranks(reps: np.ndarray) -> np.ndarray:
+    """1..r for each r in reps, concatenated."""
+    starts = np.repeat(np.cumsum(reps) - reps, reps)
+    return np.arange(int(reps.sum())) - starts + 1
+
+
+def _scan(cap_node: np.ndarray, ds: np.ndarray, budget: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Fastest y at the nodes with y <= cap_node, y_{k+1} - y_k <= 2 up_k ds_k and y_k - y_{k+1} <= 2 down_k ds_k
+    (``budget`` = (up, down))."""
+    up, down = budget
+    c = np.concatenate([[0.0], np.cumsum(2.0 * down * ds)])
+    back = np.minimum.accumulate((cap_node + c)[::-1])[::-1] - c
+    c = np.concatenate([[0.0], np.cumsum(2.0 * up * ds)])
+    return np.minimum.accumulate(back - c) + c
+
+
+@dataclass
+class _Geometry:
+    """|T_i|, |K_i|, |P3_i| per evaluation point (m, 3): the tangent, curvature and third derivative by arc
+    length, on the machine's columns; ``kt`` = sign(T_i) K_i (how the normal part adds to a speed-up)."""
+
+    t: np.ndarray
+    k: np.ndarray
+    p3: np.ndarray
+    kt: np.ndarray
+
+
+def _geometry(curve: PlannedCurve, u: np.ndarray, index: np.ndarray, cols) -> tuple[_Geometry, np.ndarray]:
+    """Geometric derivatives at u, and ds/du there."""
+    _, d1, d2, d3 = curve.evaluate(u, 3, index=index)
+    sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
+    tan = d1 / sp[:, None]
+    sp1 = np.einsum("ij,ij->i", d1, d2) / sp  # d|p'|/du
+    sp2 = (np.einsum("ij,ij->i", d2, d2) + np.einsum("ij,ij->i", d1, d3)) / sp - sp1**2 / sp
+    kv = (d2 - sp1[:, None] * tan) / sp[:, None] ** 2
+    p3 = (d3 - 3.0 * (sp * sp1)[:, None] * kv - sp2[:, None] * tan) / sp[:, None] ** 3
+    mask = np.zeros(3)
+    mask[list(cols)] = 1.0
+    return _Geometry(np.abs(tan) * mask, np.abs(kv) * mask, np.abs(p3) * mask, np.sign(tan) * kv * mask), sp
+
+
+def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Speed^2 cap from velocity and feed, and the largest speed^2 the normal terms alone allow."""
+    with np.errstate(divide="ignore"):
+        y_vel = np.min(np.where(g.t > 0, (lim.vmax / np.where(g.t > 0, g.t, 1.0)) ** 2, np.inf), axis=1)
+        y_vel = np.minimum(y_vel, feed**2)
+        y_acc = np.min(np.where(g.k > 0, lim.amax / np.where(g.k > 0, g.k, 1.0), np.inf), axis=1)
+        if jerk:
+            j = _JERK_SHARE * lim.jmax
+            y_jerk = np.min(np.where(g.p3 > 0, (j / np.where(g.p3 > 0, g.p3, 1.0)) ** (2.0 / 3.0), np.inf), axis=1)
+            y_acc = np.minimum(y_acc, y_jerk)
+    return y_vel, y_acc
+
+
+class _Budgets:
+    """Largest path acceleration and deceleration on every grid interval for any speed^2 up to a level Y.
+
+    Acceleration, per axis: -amax_i <= T_i a + K_i y <= amax_i, so a speed-up may use
+    (amax_i - sign(T_i) K_i y) / |T_i| and a slow-down (amax_i + sign(T_i) K_i y) / |T_i|, at their worst
+    over 0 <= y <= Y. Jerk, when filtered over Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share *
+    jmax_i, with J the largest jump of the acceleration within Tj (the budget, or twice it). Each axis
+    takes the worst of every term over the interval's three points (conservative, and three columns
+    instead of nine).
+    """
+
+    def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
+        def worst(a):  # (3m, 3) -> (m, 3): the largest over the interval's three points, per axis
+            return a.reshape(3, m, 3).max(axis=0)
+
+        t = worst(g.t)
+        moving = t > 0  # never on a column the machine lacks (its limits are inf)
+        inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
+        self.alpha = np.where(moving, np.where(moving, lim.amax[None, :], 1.0) * inv_t, np.inf)
+        self.beta_up = worst(np.maximum(g.kt, 0.0)) * inv_t
+        self.beta_down = worst(np.maximum(-g.kt, 0.0)) * inv_t
+        self.window = window
+        if window > 0:
+            self.jmax = _JERK_SHARE * lim.jmax[None, :]
+            self.t_win, self.k3, self.p3 = t / window, 3.0 * worst(g.k), worst(g.p3)
+
+    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
+        up to twice the budget within Tj), elsewhere for jumps of up to the budget."""
+        y = level[:, None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            up = np.min(self.alpha - self.beta_up * y, axis=1)
+            down = np.min(self.alpha - self.beta_down * y, axis=1)
+            if self.window > 0:
+                root = np.sqrt(y)
+                t_win = self.t_win if swing is None else self.t_win * (1.0 + swing)[:, None]
+                coeff = t_win + self.k3 * root
+                jerk = np.min(np.where(coeff > 0, (self.jmax - self.p3 * (y * root)) / coeff, np.inf), axis=1)
+                up, down = np.minimum(up, jerk), np.minimum(down, jerk)
+        clean = [np.maximum(np.where(np.isfinite(b), b, 1e12), 1e-9) for b in (up, down)]
+        return clean[0], clean[1]
+
+
+def _converged(high: np.ndarray, low: np.ndarray) -> bool:
+    """The profiles from above and from below agree within _CONVERGED of the speed^2 at every node."""
+    return bool(np.all(high - low <= _CONVERGED * high + 1e-9 * float(np.max(high))))
+
+
+def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
+             node_limit: np.ndarray | None = None, rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """The fastest profile whose tangential budget on each interval is taken at its own speed there.
+
+    T(y) = the scans with budgets taken at the profile y is antitone, so from y = 0 the iterates alternate
+    around the fixed point: odd ones from above, even ones from below. An even iterate used budgets taken
+    at a faster profile, so it is feasible; they increase towards the fixed point. Returns the last
+    feasible profile and its budgets.
+    """
+    node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
+    if node_limit is not None:
+        node_cap = np.minimum(node_cap, node_limit)
+    node_cap[stops] = 0.0
+    high = _scan(node_cap, ds, budget_of(np.zeros_like(cap)))
+    low = budget = None
+    for _ in range(rounds):
+        budget = budget_of(np.minimum(cap, np.maximum(high[:-1], high[1:])))
+        low = _scan(node_cap, ds, budget)
+        if _converged(high, low):
+            break
+        high = _scan(node_cap, ds, budget_of(np.minimum(cap, np.maximum(low[:-1], low[1:]))))
+    assert low is not None and budget is not None, "at least one round"
+    return low, budget
+
+
+def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
+                  feed_of_u, lim: PathLimits, *, jerk: bool = False) -> TimeLaw:
+    """The fastest time law on ``curve`` under ``lim`` (see the module docstring).
+
+    ``feed_of_u(u)`` gives the path-speed cap at curve parameters u; ``stop_u`` are parameters where the
+    tool rests (with ``stop_dwell`` seconds, owned by dwell segment ``stop_segment`` or -1).
+    """
+    u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP)
+    du = np.diff(u)
+    if np.any(du <= 0):
+        raise PlanningError("the planned curve has an empty interval", where="planner")
+    k_iv = curve.interval_at(0.5 * (u[:-1] + u[1:]))
+    m = len(du)
+    # arc length of every grid interval (Gauss-Legendre), and the geometry at both ends and the middle
+    gl_u = 0.5 * (u[:-1] + u[1:])[:, None] + 0.5 * du[:, None] * _GL3_X[None, :]
+    d1 = curve.evaluate(gl_u.ravel(), 1, index=np.repeat(k_iv, len(_GL3_X)))[1]
+    ds = 0.5 * du * (np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(m, -1) @ _GL3_W)
+    s = np.concatenate([[0.0], np.cumsum(ds)])
+    pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:]])
+    geo, sp = _geometry(curve, pts, np.tile(k_iv, 3), lim.cols)
+    speed_u = np.r_[sp[:m], sp[-1]]
+    feed = feed_of_u(np.tile(0.5 * (u[:-1] + u[1:]), 3))
+    y_vel, y_acc = _caps(geo, feed, lim, jerk)
+    cap = np.minimum(np.min(y_vel.reshape(3, m), axis=0), _RHO * np.min(y_acc.reshape(3, m), axis=0))
+    stops = np.searchsorted(u, stop_u)
+    window = float(np.max((lim.amax / lim.jmax)[list(lim.cols)])) if jerk else 0.0
+
+    budget_of = _Budgets(geo, m, lim, window)
+    y, budget = _profile(cap, stops, ds, budget_of)
+    if jerk:
+        y = _filterable(y, cap, budget_of, stops, ds, window, _stop_waits(len(u), stops, stop_dwell, window,
+                                                                          lim.period))
+    accel = np.diff(y) / (2.0 * ds)
+    return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
+
+
+def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
+                window: float, rest: np.ndarray) -> np.ndarray:
+    """The profile made fit for the moving average over Tj.
+
+    1. The filtered motion at time t averages the unfiltered one over [t - Tj, t], so wherever it is,
+       the unfiltered motion it averages lies within Tj of the time that motion passed there: every cap
+       and budget becomes the smallest within that reach, taken from a profile at least as fast as the
+       result (the reach of a faster profile is the wider). Planning within a profile's reach is
+       antitone in that profile, so the two alternate: every second result, capped by the faster one it
+       came from, is safe, and they increase.
+    2. The jerk of the filtered motion is (a(t) - a(t - Tj)) / Tj. The budgets allow a jump of one
+       budget within Tj. A swing further than that (speeding up within Tj of slowing down) is mostly a
+       peak: those are cut flat for Tj (``_flatten_peaks``). Wherever a swing remains, the intervals
+       involved get budgets safe for a swing of twice the budget, and it is planned again.
+    """
+    m = len(ds)
+    swing = np.zeros(m, dtype=bool)
+    fastest = y
+    for _ in range(_SWING_ROUNDS):
+        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window)
+        # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
+        node_cap = np.full(m + 1, np.inf)
+        node_cap[stops] = 0.0
+        for _ in range(_PLATEAU_ROUNDS):
+            lowered = _flatten_peaks(y, ds, window)
+            if lowered is None:
+                break
+            node_cap = np.minimum(node_cap, lowered)
+            y = _scan(np.minimum(node_cap, y), ds, budget_e)
+        depart = _node_times(y, ds) + np.cumsum(rest)  # the rests at stops (sample_time_law) separate too
+        arrive = depart - rest
+        a = np.diff(y) / (2.0 * ds)
+        # partners of interval k: the intervals the motion was on Tj earlier, during its time on k
+        p_lo = np.searchsorted(arrive[1:], depart[:-1] - window, side="right")
+        p_hi = np.searchsorted(depart[:-1], arrive[1:] - window, side="left") - 1
+        has = p_hi >= p_lo
+        p_lo, p_hi = np.clip(p_lo, 0, m - 1), np.clip(np.maximum(p_hi, p_lo), 0, m - 1)
+        allowed = np.minimum(*budget_of(np.minimum(cap, np.maximum(y[:-1], y[1:])), None))
+        allowed = window_min(allowed, *reach)
+        over = ((window_max(a, p_lo, p_hi) - a > allowed * (1 + 1e-9))
+                | (a - window_min(a, p_lo, p_hi) > allowed * (1 + 1e-9)))
+        over &= ~swing & has
+        if not over.any():
+            break
+        # mark each offending interval and its partners (a difference array over the ranges)
+        k = np.flatnonzero(over)
+        mark = np.zeros(m + 1, dtype=int)
+        np.add.at(mark, p_lo[k], 1)
+        np.add.at(mark, p_hi[k] + 1, -1)
+        swing |= (np.cumsum(mark)[:m] > 0) | over
+    return y
+
+
+def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.ndarray, stops: np.ndarray,
+                  ds: np.ndarray, window: float):
+    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval)."""
+    m = len(ds)
+
+    def reach_of(faster: np.ndarray):
+        t = _node_times(faster, ds)
+        # an interval's reach: every interval passed within Tj of any time spent on it
+        lo = np.clip(np.searchsorted(t, t[:-1] - window, side="left") - 1, 0, m - 1)
+        hi = np.maximum(np.clip(np.searchsorted(t, t[1:] + window, side="right") - 1, 0, m - 1), lo)
+        return lo, hi
+
+    def planned(faster: np.ndarray, limit: np.ndarray | None):
+        lo, hi = reach_of(faster)
+
+        def reach_budget(level):
+            return tuple(window_min(b, lo, hi) for b in budget_of(level, swing))
+
+        y, budget = _profile(window_min(cap, lo, hi), stops, ds, reach_budget, node_limit=limit,
+                             rounds=_REACH_PROFILE_ROUNDS)
+        return y, budget, (lo, hi)
+
+    high = fastest
+    for _ in range(_REACH_ROUNDS):
+        y, budget, reach = planned(high, high)
+        if _converged(high, y):
+            break
+        high = np.maximum(planned(y, None)[0], y)
+    return y, budget, reach
+
+
+def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
+    """Node caps that cut every peak of the profile flat for at least ``window`` seconds; None if all are.
+
+    A peak is a stretch of constant speed (possibly a single node) with speeding up before it and slowing
+    down after. Cut at level L, its plateau runs between the nodes where the rising and the falling side
+    reach L, and lasts that distance over sqrt(L); the level is
+    found by bisection, for all peaks at once. The plateau counts from node to node only: the grid
+    intervals where the sides cross the level still change speed a little.
+    """
+    dy = np.diff(y)
+    tiny = 1e-9 * max(float(np.max(y)), 1.0)
+    sign = np.where(dy > tiny, 1, np.where(dy < -tiny, -1, 0))
+    v = np.sqrt(np.maximum(y, 0.0))
+    dt = 2.0 * ds / np.maximum(v[:-1] + v[1:], 1e-300)
+    moving = np.flatnonzero(sign != 0)
+    if len(moving) < 2:
+        return None
+    turn = (sign[moving[:-1]] > 0) & (sign[moving[1:]] < 0)
+    rise, fall = moving[:-1][turn], moving[1:][turn]  # last rising interval, first falling one
+    flat_time = np.cumsum(np.r_[0.0, np.where(sign == 0, dt, 0.0)])
+    short = flat_time[fall] - flat_time[rise + 1] < window * (1.0 - 1e-6)
+    if not short.any():
+        return None
+    rise, fall = rise[short], fall[short]
+    s = np.r_[0.0, np.cumsum(ds)]
+    # each peak's sides: the run of rising intervals ending at its last rise, the falling run from its first fall
+    run_start = np.r_[True, sign[1:] != sign[:-1]]
+    run_id = np.cumsum(run_start) - 1
+    first_of_run = np.flatnonzero(run_start)
+    last_of_run = np.r_[first_of_run[1:] - 1, len(sign) - 1]
+    left0 = first_of_run[run_id[rise]]
+    right1 = last_of_run[run_id[fall]] + 1
+    top = y[rise + 1]
+    lo, hi = np.maximum(y[left0], y[right1]), top.copy()
+    # one sorted key array per side, peaks kept apart by multiples of a big offset
+    big = 2.0 * float(np.max(y)) + 1.0
+    idx = np.arange(len(rise))
+    l_len, r_len = rise + 2 - left0, right1 - fall + 1
+    l_nodes = np.concatenate([np.arange(a, b + 2) for a, b in zip(left0, rise)])
+    r_nodes = np.concatenate([np.arange(a, b + 1)[::-1] for a, b in zip(fall, right1)])
+    l_key = y[l_nodes] + np.repeat(idx, l_len) * big
+    r_key = y[r_nodes] + np.repeat(idx, r_len) * big
+    l_off, r_off = np.r_[0, np.cumsum(l_len)[:-1]], np.r_[0, np.cumsum(r_len)[:-1]]
+
+    def inner(key, nodes, off, length, level):
+        """Where the side is first at or above the level, at a node (the plateau starts and ends at nodes)."""
+        j = np.clip(np.searchsorted(key, level + idx * big), off, off + length - 1)
+        return s[nodes[j]]
+
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        width = inner(r_key, r_nodes, r_off, r_len, mid) - inner(l_key, l_nodes, l_off, l_len, mid)
+        wide = width >= window * np.sqrt(mid)
+        lo, hi = np.where(wide, mid, lo), np.where(wide, hi, mid)
+    level = np.minimum(lo, top * (1.0 - 1e-6))
+    # every node of a peak above its level is capped there: both sides and the top between them
+    caps = np.full(len(y), np.inf)
+    t_len = fall - rise
+    t_nodes = np.concatenate([np.arange(a + 1, b + 1) for a, b in zip(rise, fall)])
+    for nodes, length in ((l_nodes, l_len), (r_nodes, r_len), (t_nodes, t_len)):
+        lv = np.repeat(level, length)
+        above = y[nodes] > lv
+        np.minimum.at(caps, nodes[above], lv[above])
+    return caps
+
+
+def _node_times(y: np.ndarray, ds: np.ndarray) -> np.ndarray:
+    v = np.sqrt(np.maximum(y, 0.0))
+    return np.concatenate([[0.0], np.cumsum(2.0 * ds / np.maximum(v[:-1] + v[1:], 1e-300))])
+
+
+@dataclass
+class _Phases:
+    """The unfiltered motion as phases in time order: each starts at ``start`` (s) at arc length ``s0`` with
+    speed ``v0`` and constant acceleration ``a`` for ``dur`` seconds (waits have v0 = a = 0)."""
+
+    start: np.ndarray
+    dur: np.ndarray
+    s0: np.ndarray
+    v0: np.ndarray
+    a: np.ndarray
+    owner: np.ndarray  # dwell segment a wait belongs to, -1 otherwise
+
+    def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        k = np.clip(np.searchsorted(self.start, t, side="right") - 1, 0, len(self.start) - 1)
+        return k, np.clip(t - self.start[k], 0.0, self.dur[k])
+
+    def s(self, t: np.ndarray) -> np.ndarray:
+        k, tau = self.at(t)
+        return self.s0[k] + tau * (self.v0[k] + 0.5 * self.a[k] * tau)
+
+    def integral(self, t: np.ndarray) -> np.ndarray:
+        """Running integral of s over [0, t] (s is s0 before 0 and its end value after the last phase), as
+        long doubles: the moving average subtracts two of them."""
+        part = self.dur * (self.s0 + self.dur * (0.5 * self.v0 + self.dur * self.a / 6.0))
+        cum = np.concatenate([[0.0], np.cumsum(part.astype(np.longdouble))])
+        k, tau = self.at(t)
+        inside = (tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))).astype(np.longdouble)
+        end_t = self.start[-1] + self.dur[-1]
+        s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
+        after = (np.maximum(t - end_t, 0.0) * s_end).astype(np.longdouble)
+        before = (np.minimum(t, 0.0) * self.s0[0]).astype(np.longdouble)
+        return cum[k] + inside + after + before
+
+
+def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float, period: float) -> np.ndarray:
+    """How long the unfiltered motion waits at each node: at every stop inside the program its dwell, but at
+    least a period, so that no sampled acceleration sees both the arrival and the departure (which may go
+    another way); plus Tj when filtered, so that the filtered motion rests there that long too. At the
+    program's ends, the dwell."""
+    wait = np.zeros(n)
+    np.add.at(wait, stop_node, dwell)
+    inner = np.zeros(n, dtype=bool)
+    inner[stop_node] = True
+    inner[[0, -1]] = False
+    wait[inner] = np.maximum(wait[inner], period) + window
+    return wait
+
+
+def _phases(law: TimeLaw) -> _Phases:
+    s, y = law.s, law.y
+    v = np.sqrt(np.maximum(y, 0.0))
+    dt = 2.0 * np.diff(s) / np.maximum(v[:-1] + v[1:], 1e-300)
+    wait = _stop_waits(len(s), law.stop_node, law.stop_wait, law.window, law.period)
+    owner = np.full(len(s), -1)
+    owner[law.stop_node] = law.stop_segment
+    n = len(s)
+    dur, s0, v0, acc, own = np.empty(2 * n - 1), np.empty(2 * n - 1), np.zeros(2 * n - 1), np.zeros(2 * n - 1), \
+        np.full(2 * n - 1, -1)
+    dur[0::2], dur[1::2] = wait, dt
+    s0[0::2], s0[1::2] = s, s[:-1]
+    v0[1::2] = v[:-1]
+    acc[1::2] = law.accel
+    own[0::2] = owner
+    start = np.concatenate([[0.0], np.cumsum(dur)[:-1]])
+    return _Phases(start, dur, s0, v0, acc, own)
+
+
+def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
+                    axes: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Curve parameter u at t = kT (k = 0..N, the last sample exactly at the end of the motion) and, per
+    sample, the dwell segment it waits in (-1 elsewhere). Dwells (and, when filtered, a rest of Tj at
+    every stop) are inserted at the stop nodes. BudgetError before allocating more setpoints (of ``axes``
+    columns) than the budget allows."""
+    ph = _phases(law)
+    total = float(ph.start[-1] + ph.dur[-1]) + law.window
+    budget.check("setpoints", total / period + 1, axes=axes,
+                 what=f"planning {total:.6g} s of motion at a {period * 1e3:g} ms period",
+                 change="raise the feeds (a feed near 0 makes a move last for ever), shorten the program, "
+                        "or lengthen the machine's period")
+    n = max(1, math.ceil(total / period - 1e-9))
+    ts = np.arange(n + 1) * period
+    ts[-1] = total
+    if law.window <= 0:
+        k, _ = ph.at(ts)
+        s = ph.s(ts)
+        seg = ph.owner[k]
+    else:
+        tj = law.window
+        s = ((ph.integral(ts) - ph.integral(ts - tj)) / np.longdouble(tj)).astype(float)
+        k0, _ = ph.at(ts - tj)
+        k1, _ = ph.at(ts)
+        resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
+        s = np.where(resting, ph.s0[k1], s)
+        seg = np.where(resting & (ph.owner[k1] >= 0), ph.owner[k1], -1)
+    u = law.u_at(s, curve)
+    u[-1] = law.u[-1]
+    return u, seg

@@ -1,0 +1,192 @@
+"""The look-ahead planner for real programs (smoothing + per-axis time law), judged from its setpoints.
+
+Every figure here is taken from the sampled setpoints, as the reference README measures any planner:
+v_k = (p_k+1 - p_k)/T, a_k and j_k likewise, per axis against that axis's limit. Sampling-noise
+allowance for jerk: positions are exact to about 1e-13 mm, so the sampled jerk carries noise below
+1e-3 mm/s^3 at T = 1 ms; the planner aims at 0.97 of the limit, and the tests hold it to the limit itself.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from functools import lru_cache
+from pathlib import Path as FsPath
+
+import numpy as np
+import pytest
+
+from flowmc.errors import PlanningError
+from flowmc.motion.machine import Axis, Machine
+from flowmc.motion.metrics import contour_error, coverage_error, peak_ratio, programmed_polyline
+from flowmc.motion.path import Arc, Dwell, Line, Path
+from flowmc.motion.planner import plan_smooth
+
+ROOT = FsPath(__file__).resolve().parents[2]
+REF = ROOT / "tests" / "data" / "reference"
+NAMES = ("mixed", "star10", "zigzag40", "ellipse200")
+TOL = 0.05
+
+
+def machine(jerk: float = 5000.0, period: float = 0.004) -> Machine:
+    return Machine(axes=tuple(Axis(name=n, min=-500, max=500, vmax=200, amax=200, jmax=jerk) for n in "XYZ"),
+                   period=period)
+
+
+@lru_cache(maxsize=None)
+def ref_path(name: str) -> Path:
+    data = json.loads((REF / "paths" / f"{name}.json").read_text())
+    return Path.polyline(data["points"], feed=data["limits"]["feed_mm_s"])
+
+
+@lru_cache(maxsize=None)
+def plan(name: str, profile: str, jerk: float = 5000.0):
+    return plan_smooth(ref_path(name), machine(jerk), tolerance=TOL, profile=profile)
+
+
+def within_limits(traj, jerk: float | None):
+    limits = np.full(len(traj.axes), 200.0)
+    assert peak_ratio(traj, limits, order=1) <= 1.0 + 1e-9
+    assert peak_ratio(traj, limits, order=2) <= 1.01  # the README's feasibility margin for sampled acceleration
+    if jerk is not None:
+        assert peak_ratio(traj, np.full(len(traj.axes), jerk), order=3) <= 1.0
+
+
+def deviation_both_ways(traj, path: Path) -> tuple[float, float]:
+    programmed = programmed_polyline(path, traj.axes)
+    return contour_error(traj.positions, programmed), coverage_error(traj.positions, programmed)
+
+
+# ---------------------------------------------------------------- limits and tolerance, from the samples
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("profile,jerk", [("trapezoid", None), ("scurve", 5000.0), ("scurve", 500.0)])
+def test_every_axis_keeps_its_velocity_acceleration_and_jerk(name, profile, jerk):
+    p = plan(name, profile, jerk or 5000.0)
+    within_limits(p.trajectory, jerk)
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("profile", ["trapezoid", "scurve"])
+def test_deviation_within_tolerance_both_ways(name, profile):
+    to_path, from_path = deviation_both_ways(plan(name, profile).trajectory, ref_path(name))
+    assert to_path <= TOL and from_path <= TOL
+
+
+def test_jerk_is_held_where_lines_meet_arcs_and_at_corners():
+    # a racetrack with a V: curvature jumps at every line-arc junction, sharp corners at the V
+    segs, p = [], np.zeros(3)
+    for step in ("line", "arc", "line-", "arc-", "v1", "v2"):
+        if step == "line":
+            q = p + [40, 0, 0]
+            segs.append(Line(p, q, feed=200.0))
+        elif step == "line-":
+            q = p + [-40, 0, 0]
+            segs.append(Line(p, q, feed=200.0))
+        elif step.startswith("arc"):
+            c = p + [0, 10, 0]
+            q = c + [0, 10, 0]
+            segs.append(Arc(p, q, c, ccw=step == "arc", feed=200.0))
+        else:
+            q = p + ([5, 5, 0] if step == "v1" else [-5, 5, 0])
+            segs.append(Line(p, q, feed=200.0))
+        p = q
+    path = Path(segs)
+    for period in (0.001, 0.004):
+        traj = plan_smooth(path, machine(5000.0, period), profile="scurve").trajectory
+        within_limits(traj, 5000.0)
+        to_path, from_path = deviation_both_ways(traj, path)
+        assert to_path <= TOL and from_path <= TOL
+        # and the sampled jerk really is bounded by the limit, not by a stop at every junction
+        assert traj.duration < 1.6 * plan_smooth(path, machine(5000.0, period)).cycle_time
+
+
+def test_dwells_stops_and_io_keep_their_places_in_jerk_limited_plans():
+    path = Path([Line((0, 0, 0), (20, 0, 0), feed=100, spindle=1000),
+                 Dwell((20, 0, 0), 0.3, spindle=1000),
+                 Line((20, 0, 0), (20, 20, 0), feed=100, spindle=1000, outputs=((2, True),)),
+                 Line((20, 20, 0), (0, 20, 0), feed=100, spindle=0)])
+    traj = plan_smooth(path, machine(5000.0, 0.001), profile="scurve").trajectory
+    within_limits(traj, 5000.0)
+    dwell = np.flatnonzero(traj.segment == 1)
+    assert len(dwell) * 0.001 == pytest.approx(0.3, abs=0.002)
+    assert np.ptp(traj.positions[dwell], axis=0).max() == 0.0
+    assert np.all(np.diff(traj.segment) >= 0) and np.array_equal(np.unique(traj.segment), np.arange(4))
+    # the spindle change forces a stop at (20, 20)
+    k = np.flatnonzero(traj.segment == 3)[0]
+    assert np.linalg.norm(traj.positions[k - 1] - [20, 20, 0]) < 1e-6
+    events = list(zip(traj.signals.kind.tolist(), traj.signals.channel.tolist(), traj.signals.value.tolist()))
+    assert ("dout", 2, 1.0) in events and ("spindle_rpm", 0, 0.0) in events
+
+
+# ---------------------------------------------------------------- smoothing across runs of short segments
+
+def circle_chords(n: int, radius: float = 20.0) -> Path:
+    t = np.linspace(0.0, 2.0 * math.pi, n + 1)
+    return Path.polyline(np.c_[radius * np.cos(t), radius * np.sin(t)], feed=200.0)
+
+
+def test_a_run_of_short_chords_is_planned_like_the_curve_it_describes():
+    # 2000 chords of 0.063 mm on a circle: corner by corner each is a 0.18 degree turn on a segment far
+    # shorter than any blend wants; fitted as one run, the plan is as fast as on the true circle.
+    m = machine(period=0.001)
+    chords = plan_smooth(circle_chords(2000), m)
+    circle = plan_smooth(Path([Arc((20, 0, 0), (20, 0, 0), (0, 0, 0), feed=200.0)]), m)
+    assert chords.smoothed.fitted == 1 and chords.smoothed.failed == 0
+    assert chords.cycle_time <= 1.02 * circle.cycle_time
+    within_limits(chords.trajectory, None)
+    to_path, from_path = deviation_both_ways(chords.trajectory, circle_chords(2000))
+    assert to_path <= TOL and from_path <= TOL
+
+
+def test_detail_below_the_tolerance_is_smoothed_away_within_it():
+    # a line with a 0.02 mm zigzag every 0.1 mm: no corner of it needs to be followed
+    x = np.arange(0.0, 60.0001, 0.1)
+    y = np.where(np.arange(len(x)) % 2 == 0, 0.0, 0.02)
+    path = Path.polyline(np.c_[x, y], feed=200.0)
+    p = plan_smooth(path, machine(period=0.001))
+    within_limits(p.trajectory, None)
+    to_path, from_path = deviation_both_ways(p.trajectory, path)
+    assert to_path <= TOL and from_path <= TOL
+    straight = plan_smooth(Path.polyline([[0, 0], [60, 0]], feed=200.0), machine(period=0.001))
+    assert p.cycle_time <= 1.05 * straight.cycle_time
+
+
+def test_a_right_angle_is_passed_on_the_per_axis_optimal_parabola():
+    # X then Y: with each axis at 200 mm/s^2 the blend within 0.05 mm is entered at v, v^2 = 4 tol /
+    # (sin(45 deg) m), m = 1/200: about 7.4 mm/s (a tangent arc within 0.05 mm is passed at 4.8 mm/s), and
+    # both axes change speed at their limit all through it, so the speed dips to v cos(45 deg) at its middle
+    path = Path.polyline([[0, 0], [50, 0], [50, 50]], feed=200.0)
+    p = plan_smooth(path, machine(period=0.001))
+    assert p.smoothed.blends == 1
+    speed = p.trajectory.speed()
+    corner = int(np.argmin(np.linalg.norm(p.trajectory.positions[:, :2] - [50, 0], axis=1)))
+    tol_fit = 0.98 * (TOL - 200.0 * 0.001**2 / 8.0)
+    v = math.sqrt(4 * tol_fit / (math.sin(math.pi / 4) / 200.0))
+    assert speed[corner - 5:corner + 5].min() == pytest.approx(v * math.cos(math.pi / 4), rel=0.07)
+    assert speed[corner - 60:corner - 40].max() > 1.3 * 4.8  # still faster than a tangent arc allows, nearby
+    to_path, from_path = deviation_both_ways(p.trajectory, path)
+    assert 0.9 * TOL < max(to_path, from_path) <= TOL
+
+
+# ---------------------------------------------------------------- how close to time-optimal
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_time_law_is_within_two_percent_of_topp_ra_on_its_own_curve(name):
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from toppra_reference import toppra_time
+
+    p = plan(name, "trapezoid")
+    reference = toppra_time(p, machine(), 200.0, grid_step=0.02)
+    assert reference <= p.cycle_time <= 1.02 * reference + 2 * 0.004
+
+
+def test_bad_input_names_where():
+    with pytest.raises(PlanningError, match="tolerance must be > 0"):
+        plan_smooth(ref_path("mixed"), machine(), tolerance=0.0)
+    with pytest.raises(PlanningError, match="unknown profile"):
+        plan_smooth(ref_path("mixed"), machine(), profile="sine")
+    gap = Path([Line((0, 0, 0), (10, 0, 0), source="a.ngc:3"), Line((10, 1, 0), (20, 1, 0), source="a.ngc:4")])
+    with pytest.raises(PlanningError, match=r"^segment 2 \(a.ngc:4\): starts at"):
+        plan_smooth(gap, machine())
