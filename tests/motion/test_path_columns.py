@@ -48,13 +48,17 @@ def both() -> tuple[Path, Path]:
 
 def test_the_reader_hands_out_columns_and_the_planner_makes_no_segment_objects():
     path = parse_gcode(PROGRAM, "part.ngc")
-    plan = plan_lookahead(path, Machine())
+    # the segment-by-segment planners read columns only; the blend rule's smoothing (flowmc.motion.smoothing)
+    # still walks segment objects, which the last assertion of the test below pins down
+    plan = plan_lookahead(path, Machine(), rule="junction_deviation")
     plan_stop_and_go(path, Machine())
     path.summary()
     assert "segments" not in path.__dict__  # no Segment object was made for all of that
     assert len(plan.trajectory.positions) > 100
     assert path[5].kind == "arc" and "segments" not in path.__dict__
     assert path.kind_counts() == {"arc": 5, "dwell": 3, "line": 6, "nurbs": 1}
+    plan_lookahead(path, Machine())  # the default blend rule smooths, from the segment objects
+    assert "segments" in path.__dict__
 
 
 def test_a_column_path_is_the_same_path_as_its_segment_objects(both):
