@@ -170,8 +170,9 @@ class Line(Segment):
         """Lines through ``points`` (N, 3), all with the same state: checked once, built without the
         per-line checks (a traced picture has hundreds of thousands)."""
         pts = np.asarray(points, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
-            raise PathError(f"line points must be finite (N, 3), got shape {pts.shape}", where=state.get("source"))
+        if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.abs(pts) <= MAX_COORD_MM):
+            raise PathError(f"line points must be (N, 3) within +-{MAX_COORD_MM:g} mm, got shape {pts.shape}",
+                            where=state.get("source"))
         rows = [frozen_array(p) for p in pts]
         fields = {**_defaults(), **state}
         out = []

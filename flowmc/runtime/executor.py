@@ -17,11 +17,12 @@ import numpy as np
 from pydantic import ValidationError
 
 from flowmc.digest import Undigestable, digest
-from flowmc.errors import FlowmcError, GraphError
+from flowmc.errors import FlowmcError, GraphError, printable
+from flowmc.fileio import fingerprint
 from flowmc.graph import Graph, Issue, load
 from flowmc.registry import Registry
 from flowmc.runtime.cache import CacheEntry, NodeCache, signature
-from flowmc.runtime.context import NodeContext, Site, resolve_inside
+from flowmc.runtime.context import NodeContext, Site, files_read, resolve_inside
 from flowmc.runtime.events import Event, EventBus, Listener
 from flowmc.runtime.schedule import Plan, make_plan
 from flowmc.runtime.validate import BoundNode, value_matches
@@ -220,11 +221,17 @@ class _Run:
         self.results: dict[str, NodeResult] = {}
         self.events: list[Event] = []
         self.blocked: dict[str, str] = {}
+        self._reads: frozenset[Path] | None = None
 
     def emit(self, kind: str, node_id: str, duration: float | None = None, message: str | None = None) -> None:
         event = Event(kind, node_id, duration, message)  # type: ignore[arg-type]
         self.events.append(event)
         self.runtime.events.emit(event)
+
+    def files_read(self) -> frozenset[Path]:
+        if self._reads is None:
+            self._reads = files_read(self.plan)
+        return self._reads
 
     def execute(self) -> RunResult:
         order = self.plan.order
@@ -293,15 +300,17 @@ class _Run:
             result.logs.append(message)
             self.emit("log", node.id, message=message)
 
-        ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id))
+        ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id),
+                          self.files_read)
         outputs = node.cls().run(ctx, params, **kwargs)
         _check_outputs(node, outputs)
         return outputs
 
 
 def _file_stamps(node: BoundNode, wired: dict[str, Any], site: Site) -> list[tuple[str, str]]:
-    """Sizes and modification times of what a node reads (``NodeType.reads``: files, or folders whose files
-    it may read): a pure node that reads files is cached while they are unchanged."""
+    """Content hashes of what a node reads (``NodeType.reads``: files, or folders whose files it may read):
+    a pure node that reads files is cached while they are unchanged. Hashes, not sizes and modification
+    times: an edit that keeps both (a copy with ``cp -p``, a coarse clock) must still be seen."""
     stamps = []
     for name in node.cls.reads:
         rel = wired[name] if name in wired else node.raw_params.get(name)
@@ -309,8 +318,8 @@ def _file_stamps(node: BoundNode, wired: dict[str, Any], site: Site) -> list[tup
             continue
         try:
             path = resolve_inside(site.root, site.graph_dir, rel)
-            entries = sorted(os.scandir(path), key=lambda e: e.name) if path.is_dir() else [path]
-            listing = ";".join(f"{getattr(e, 'name', '')}:{e.stat().st_mtime_ns}:{e.stat().st_size}" for e in entries)
+            entries = sorted(Path(e.path) for e in os.scandir(path) if e.is_file()) if path.is_dir() else [path]
+            listing = ";".join(f"{e.name}:{fingerprint(e)}" for e in entries)
             stamps.append((f"file:{name}", digest(listing)))
         except (FlowmcError, OSError, TypeError):
             stamps.append((f"file:{name}", "unreadable"))  # the node runs, and says what is wrong
@@ -353,9 +362,21 @@ def _digest_outputs(node: BoundNode, outputs: dict[str, Any]) -> dict[str, str]:
 
 
 def _failure_message(node_id: str, exc: BaseException) -> str:
+    """One line naming the node. A FlowmcError says what and where; a value a model refused, memory or
+    recursion running out are said plainly; anything else is a bug and keeps its type name."""
     if isinstance(exc, FlowmcError):
         text = str(exc)
+    elif isinstance(exc, ValidationError):
+        first = exc.errors()[0]
+        loc = ".".join(str(p) for p in first["loc"])
+        text = f"invalid value{f' for {loc}' if loc else ''}: {first['msg']}"
+    elif isinstance(exc, MemoryError):
+        text = ("ran out of memory: ask for less (a coarser tolerance, a shorter program), or lower the memory "
+                "budget so the request is refused before it starts (flowmc run --memory-mb)")
+    elif isinstance(exc, RecursionError):
+        text = "its input is nested too deeply to process"
     else:
         text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    text = printable(text, 2000)
     prefix = f"node {node_id!r}"
     return text if text.startswith(prefix) else f"{prefix}: {text}"
