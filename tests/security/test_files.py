@@ -178,3 +178,51 @@ def test_editor_save_as_asks_before_replacing_refuses_folders_and_takes_a_bom(ed
     text = flowmc.dumps(flowmc.load(tmp_path / "example.flowmc.json"))
     assert files.upload("bom.flowmc.json", b"\xef\xbb\xbf" + text.encode())
     assert editor.messages[-1][0] == "info" and editor.state.node("table") is not None
+
+
+def test_a_surrogate_upload_is_refused_and_save_still_works(editor, tmp_path):
+    files = editor.files
+    bad = flowmc.dumps(flowmc.load(tmp_path / "example.flowmc.json")).replace('"title": "example"', '"title": "\\ud800"')
+    assert "\\ud800" in bad
+    assert files.upload("bad.flowmc.json", bad.encode())
+    assert editor.messages[-1][0] == "error" and "surrogate" in editor.messages[-1][1]
+    assert files.save() and editor.messages[-1] == ("info", "saved example.flowmc.json")
+
+
+def test_a_second_tab_is_told_that_tabs_share_one_graph_and_undo(editor):
+    import msgspec
+    import viser
+    import zstandard
+    from websockets.sync.client import connect
+
+    from flowmc.ui.guard import Guard
+
+    port = editor.server.get_port()
+    headers = {"Origin": f"http://127.0.0.1:{port}", "Cookie": f"{Guard.cookie_name(port)}={editor.guard.token}"}
+
+    def tab():
+        ws = connect(f"ws://127.0.0.1:{port}/", subprotocols=[f"viser-v{viser.__version__}"],
+                     additional_headers=headers, open_timeout=30)
+        camera = {"type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, 0.0, 5.0],
+                  "fov": 1.0, "near": 0.01, "far": 100.0, "image_height": 600, "image_width": 800,
+                  "look_at": [0.0, 0.0, 0.0], "up_direction": [0.0, 0.0, 1.0]}
+        ws.send(msgspec.msgpack.encode(camera))  # a page counts as a client once it reports its camera
+        return ws
+
+    def heard(ws, text: bytes, seconds: float = 30.0) -> bool:
+        """Whether a frame to this tab carries ``text`` (frames: sizes, then zstd-compressed msgpack)."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            try:
+                frame = ws.recv(timeout=0.5)
+            except TimeoutError:
+                continue
+            size = int.from_bytes(frame[8:16], "little")
+            if text in zstandard.ZstdDecompressor().decompressobj().decompress(frame[16:16 + size]):
+                return True
+        return False
+
+    with tab() as first:
+        assert not heard(first, b"share one undo history", seconds=2.0)  # alone: nothing to say
+        with tab() as second:
+            assert heard(second, b"share one undo history") and heard(first, b"share one undo history")
