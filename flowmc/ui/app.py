@@ -210,7 +210,7 @@ class Editor:
             self.state.select(nodes=[node_id])
             return node_id
 
-    def confirm(self, title: str, text: str, button: str, action: Callable[[], None], client: Any = None) -> Any:
+    def confirm(self, title: str, text: str, button: str, action: Callable[[], object], client: Any = None) -> Any:
         """A dialog with ``button`` (does ``action`` under the lock) and "Keep editing"; returns the modal."""
         gui = client.gui if client is not None else self.gui
         with gui.add_modal(title) as modal:

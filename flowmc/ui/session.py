@@ -76,7 +76,7 @@ class PanelHost(Protocol):
     def download(self, name: str, data: bytes, client: Any = None) -> None:
         """Hand ``data`` to the browser as the file ``name`` (one click, no second prompt)."""
 
-    def confirm(self, title: str, text: str, button: str, action: Callable[[], None], client: Any = None) -> Any:
+    def confirm(self, title: str, text: str, button: str, action: Callable[[], object], client: Any = None) -> Any:
         """Ask in a dialog; ``action()`` runs (under the lock) when the user presses ``button``."""
 
 
