@@ -24,7 +24,7 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PathError
-from flowmc.motion.path import Arc, Dwell, Line, Path, Segment, describe_segment
+from flowmc.motion.path import MAX_COORD_MM, Arc, Dwell, Line, Path, Segment, describe_segment
 
 __all__ = ["offset_path"]
 
@@ -310,8 +310,8 @@ def offset_path(path: Path, radius: float, side: Literal["left", "right"]) -> Pa
     """
     if side not in ("left", "right"):
         raise PathError(f"offset side must be 'left' or 'right', got {side!r}")
-    if not (math.isfinite(radius) and radius >= 0):
-        raise PathError(f"tool radius must be a finite number >= 0 mm, got {radius}")
+    if not (0 <= radius <= MAX_COORD_MM):
+        raise PathError(f"tool radius must be within 0 to {MAX_COORD_MM:g} mm, got {radius}")
     if radius == 0 or not path.segments:
         return path
     sign = 1.0 if side == "left" else -1.0

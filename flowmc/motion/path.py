@@ -501,6 +501,9 @@ class NurbsCurve(_TabulatedCurve, Segment):
                             where=state.get("source"))
         if ctrl.shape[1] == 2:
             ctrl = np.column_stack([ctrl, np.zeros(len(ctrl))])
+        if not np.all(np.abs(ctrl) <= MAX_COORD_MM):
+            raise PathError(f"NURBS control points must be finite and within +-{MAX_COORD_MM:g} mm",
+                            where=state.get("source"))
         w = np.ones(len(ctrl)) if weights is None else np.asarray(weights, dtype=float)
         k = nurbs.clamped_uniform_knots(len(ctrl), degree) if knots is None else np.asarray(knots, dtype=float)
         nurbs.check_nurbs(ctrl, w, k, degree)
@@ -528,7 +531,8 @@ class NurbsCurve(_TabulatedCurve, Segment):
 
         t_tab, _ = self._table
         kappa = nurbs.curvature(self.control_points, self.weights, self.knots, self.degree, t_tab)
-        return float(1.0 / max(np.max(kappa), 1e-12))
+        kappa = kappa[np.isfinite(kappa)]  # a cusp (speed 0) has no curvature to sample by
+        return float(1.0 / max(np.max(kappa, initial=0.0), 1e-12))
 
     def sample(self, tol: float) -> np.ndarray:
         n = chord_count(self.length, self.min_radius, tol)

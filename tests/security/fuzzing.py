@@ -148,7 +148,9 @@ def _like(old: Any, rng: random.Random) -> Any:
         new = copy.deepcopy(old)
         i = rng.randrange(len(new))
         new[i] = _like(new[i], rng) if rng.random() < 0.8 else copy.deepcopy(new[i])
-        return new if rng.random() < 0.8 else new * rng.choice([0, 2, 50])
+        if len(new) <= 64 and rng.random() < 0.2:  # longer lists, but a case stays a small file
+            return new * rng.choice([0, 2, 50])
+        return new
     if isinstance(old, dict) and old:
         new = dict(old)
         key = rng.choice(list(new))
@@ -276,6 +278,7 @@ class Verdict:
     code: int
     seconds: float
     stderr: str
+    grew_mb: float = 0.0  # how much the process's peak RSS grew during this case
 
     @property
     def clean(self) -> bool:
@@ -316,11 +319,16 @@ def run_batch(kind: str, start: int, count: int, seed: int, folder: Path) -> lis
     """Cases ``start`` .. ``start + count`` of one kind, in this process."""
     from flowmc.cli import main
 
+    import resource
+
     prepare(folder)
     out = []
     for case in cases(kind, start + count, seed):
         if case.index >= start:
-            out.append(run_case(case, folder, main))
+            before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+            verdict = run_case(case, folder, main)
+            verdict.grew_mb = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
+            out.append(verdict)
     return out
 
 
@@ -408,7 +416,9 @@ def _child_main(argv: list[str]) -> int:
     verdicts = run_batch(kind, start, count, seed, folder)
     bad = [{"kind": v.case.kind, "index": v.case.index, "code": v.code,
             "last": (v.stderr.strip().splitlines() or [""])[-1][:300]} for v in verdicts if not v.clean]
-    print(json.dumps({"bad": bad, "count": len(verdicts), "slowest": max((v.seconds for v in verdicts), default=0)}))
+    grew = max(verdicts, key=lambda v: v.grew_mb, default=None)
+    print(json.dumps({"bad": bad, "count": len(verdicts), "slowest": max((v.seconds for v in verdicts), default=0),
+                      "grew": [grew.case.index, round(grew.grew_mb, 1)] if grew else None}))
     return 0
 
 
