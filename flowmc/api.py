@@ -13,7 +13,7 @@ from typing import Any
 from flowmc.graph import Graph, Issue, load
 from flowmc.plugins import default_registry
 from flowmc.registry import Registry
-from flowmc.runtime import RunResult
+from flowmc.runtime import RunResult, Start
 from flowmc.runtime import Runtime as BaseRuntime
 
 __all__ = ["Runtime", "run", "validate"]
@@ -28,9 +28,12 @@ class Runtime(BaseRuntime):
 
 def run(graph: Graph | str | os.PathLike, inputs: dict[str, Any] | None = None,
         runtime: BaseRuntime | None = None, *, registry: Registry | None = None,
-        base_dir: str | os.PathLike | None = None) -> RunResult:
-    """Run ``graph`` (a Graph or a file path) once; pass a ``runtime`` to keep its cache between runs."""
-    return (runtime or Runtime(registry)).run(graph, inputs, base_dir=base_dir)
+        base_dir: str | os.PathLike | None = None, start: Start | bool | None = None) -> RunResult:
+    """Run ``graph`` (a Graph or a file path) once; pass a ``runtime`` to keep its cache between runs.
+
+    Device nodes only prepare their jobs (nothing moves) unless ``start`` is given: True (jobs at the
+    instant pace) or a ``flowmc.runtime.Start`` (options for the job runners, a hook for each job)."""
+    return (runtime or Runtime(registry)).run(graph, inputs, base_dir=base_dir, start=start)
 
 
 def validate(graph: Graph | str | os.PathLike, *, registry: Registry | None = None,

@@ -37,7 +37,7 @@ _BYTES = {
     "bytes": (12, 0),        # a text file read whole (G-code: the text and its word arrays)
     "json_bytes": (24, 0),   # a graph file's text (JSON objects cost ~20x their text)
 }
-_FIXED = {"turns": 10_000, "depth": 64, "expansion": 20_000}
+_FIXED = {"turns": 10_000, "depth": 64, "expansion": 20_000, "iterations": 100_000}
 KINDS = tuple(_BYTES) + tuple(_FIXED)
 
 _ENV_MEMORY = "FLOWMC_MEMORY_MB"

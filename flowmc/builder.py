@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 from flowmc.errors import GraphError
-from flowmc.graph import Graph, Interface, InterfaceInput, InterfaceOutput, Node, Wire, save
+from flowmc.graph import Body, Graph, Interface, InterfaceInput, InterfaceOutput, Node, Wire, save
 
 __all__ = ["GraphBuilder", "NodeRef", "PortRef"]
 
@@ -48,6 +48,12 @@ def _ref(ref: PortRef | str) -> str:
     return str(ref)
 
 
+def _as_body(graph: Graph | Body) -> Body:
+    if isinstance(graph, Body):
+        return graph
+    return Body(nodes=graph.nodes, wires=graph.wires, interface=graph.interface or Interface())
+
+
 class GraphBuilder:
     """Builds a Graph; ids default to the type's last part plus a number, positions to a row."""
 
@@ -59,13 +65,17 @@ class GraphBuilder:
         self._outputs: list[InterfaceOutput] = []
 
     def add(self, type_id: str, id: str | None = None, *, pos: tuple[float, float] | None = None,
-            params: dict[str, Any] | None = None, **kwargs: Any) -> NodeRef:
-        """Add a node; params by keyword (or ``params=`` for names like ``id`` and ``pos``)."""
+            params: dict[str, Any] | None = None, bodies: dict[str, Graph | Body] | None = None,
+            **kwargs: Any) -> NodeRef:
+        """Add a node; params by keyword (or ``params=`` for names like ``id`` and ``pos``); a structure's
+        ``bodies`` by name (graphs built with another builder: their nodes, wires and interface)."""
         node_id = id or self._fresh_id(type_id)
         if any(n.id == node_id for n in self._nodes):
             raise GraphError(f"node id {node_id!r} is already used", where="builder")
         position = pos if pos is not None else (240.0 * len(self._nodes), 0.0)
-        self._nodes.append(Node(id=node_id, type=type_id, params={**(params or {}), **kwargs}, pos=position))
+        held = {name: _as_body(body) for name, body in (bodies or {}).items()}
+        self._nodes.append(Node(id=node_id, type=type_id, params={**(params or {}), **kwargs}, pos=position,
+                                bodies=held))
         return NodeRef(node_id)
 
     def _fresh_id(self, type_id: str) -> str:

@@ -1,6 +1,7 @@
 """The ``flowmc`` command: run graphs headless, validate them, list node types, print the schema, sweep.
 
-Exit codes: 0 success, 1 the run failed (or a tool is missing), 2 the graph or an argument is invalid.
+Exit codes: 0 success, 1 the run failed (or a tool is missing), 2 the graph or an argument is invalid,
+130 a job stopped by Ctrl-C (a controlled stop).
 Every problem is one line on stderr; no tracebacks (set FLOWMC_DEBUG=1 to see them).
 """
 
@@ -11,6 +12,7 @@ import json
 import math
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Any, Callable
 
@@ -19,7 +21,7 @@ from flowmc.settings import UsageError, input_target, param_target
 
 __all__ = ["main", "build_parser"]
 
-EXIT_OK, EXIT_FAILED, EXIT_INVALID = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_INVALID, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 def _err(line: str) -> None:
@@ -77,10 +79,17 @@ def write_json_atomic(path: Path, data: Any) -> None:
 
 def _progress_printer(total: int) -> Callable[[Any], None]:
     count = 0
+    shown = [0.0]  # when an iteration line was last printed: loops say where they are about once a second
 
     def show(event: Any) -> None:
         nonlocal count
         if event.kind in ("queued", "running"):
+            return
+        if event.kind == "iteration":
+            k, of = event.iteration or (0, None)
+            if k == 1 or k == of or time.monotonic() - shown[0] >= 1.0:
+                shown[0] = time.monotonic()
+                _err(f"        {event.node_id}: {event.message}")
             return
         if event.kind == "log":
             _err(f"        {event.node_id}: {event.message}")
@@ -130,16 +139,55 @@ def cmd_run(args: argparse.Namespace) -> int:
         return EXIT_INVALID
     if not args.quiet:
         runtime.subscribe(_progress_printer(len(plan.order)))
-    result = runtime.run(plan, inputs)
+    result = runtime.run(plan, inputs)  # device nodes prepare their jobs; nothing moves yet
+    console = None
+    if result.ok and result.jobs:  # ``flowmc run`` is the explicit Start on the command line
+        from flowmc.cli_jobs import JobConsole
+
+        console = JobConsole(quiet=args.quiet)
+        result = console.start(runtime, result, _start_options(args, result))
     if args.out:
         write_json_atomic(Path(args.out), {"graph": str(args.file), **result.summary()})
+    if args.snapshot:
+        from flowmc.runtime.views import write_snapshots
+
+        for written in write_snapshots(result, plan, runtime, args.snapshot):
+            print(f"3D view: {written}", file=sys.stderr)
     for name, value in result.outputs.items():
         print(f"{name} = {json.dumps(_json_safe(flowmc.runtime.summarize(value)))}")
+    if console is not None and console.interrupted:
+        for line in console.where_stopped():
+            _err(f"stopped by Ctrl-C: {line}")
+        return EXIT_INTERRUPTED
     if not result.ok:
         for message in result.errors:
             _err(f"error: {message}")
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _start_options(args: argparse.Namespace, prepared: Any) -> dict[str, Any]:
+    """The job runners' options from ``--realtime``, ``--speed``, ``--start-at`` and the overrides."""
+    options: dict[str, Any] = {"pace": "realtime" if args.realtime else "instant", "speed": args.speed}
+    for name in ("feed", "rapid", "spindle"):
+        if getattr(args, name) is not None:
+            options[name] = getattr(args, name)
+    if args.start_at:
+        node, _, number = args.start_at.rpartition(":")
+        programs = [n for n, job in prepared.jobs.items() if getattr(job, "operation", "") == "program"]
+        if not node:
+            if len(programs) != 1:
+                raise UsageError(f"--start-at {args.start_at}: say which job, NODE:SEGMENT (program jobs: "
+                                 f"{', '.join(programs) or 'none'})")
+            node = programs[0]
+        if node not in programs:
+            raise UsageError(f"--start-at {args.start_at}: {node!r} is not a program job (program jobs: "
+                             f"{', '.join(programs) or 'none'})")
+        try:
+            options["start_at"] = {node: int(number)}
+        except ValueError:
+            raise UsageError(f"--start-at {args.start_at}: the segment is a number from 1") from None
+    return options
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -298,7 +346,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a stored param")
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
     p.add_argument("--out", metavar="results.json", help="write per-node results and outputs as JSON")
+    p.add_argument("--snapshot", metavar="DIR", help="write a PNG of every 3D View node's content into DIR")
     p.add_argument("-q", "--quiet", action="store_true", help="no per-node progress on stderr")
+    jobs = p.add_argument_group("jobs (flowmc run is the explicit Start: device nodes run; Ctrl-C stops them, "
+                                "exit 130)")
+    jobs.add_argument("--realtime", action="store_true",
+                      help="run the simulated card's jobs at the pace of the wall clock (default: at once)")
+    jobs.add_argument("--speed", type=float, default=1.0, metavar="X",
+                      help="with --realtime: this many times faster than real time (default 1)")
+    jobs.add_argument("--start-at", metavar="[NODE:]SEGMENT",
+                      help="start the program job from this segment (from 1): the machine state there is rebuilt "
+                           "and the tool approaches safely")
+    jobs.add_argument("--feed", type=float, metavar="PCT", help="feed override, 10-200 %% (default 100)")
+    jobs.add_argument("--rapid", type=float, metavar="PCT", help="rapid override, 25, 50 or 100 %%")
+    jobs.add_argument("--spindle", type=float, metavar="PCT", help="spindle override, 50-200 %%")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("validate", parents=[plugins], help="check a graph without running it")
@@ -315,7 +376,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("serve", parents=[plugins], help="open the graph editor in the browser")
     p.add_argument("file", nargs="?", help="graph file to open (default: browse the current folder)")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="port to listen on")
+    p.add_argument("--port", type=int, default=8080, help="port to listen on (default: 8080)")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("compare", parents=[plugins], help="compare a graph's motion with LinuxCNC's")

@@ -7,6 +7,7 @@ says *where* (file, line, node id, segment) before *what*.
 from __future__ import annotations
 
 import re
+from typing import Any
 
 __all__ = [
     "FlowmcError",
@@ -69,7 +70,10 @@ class PlanningError(FlowmcError):
 
 
 class DeviceError(FlowmcError):
-    """A device that refuses, faults or does not answer."""
+    """A device that refuses, faults or does not answer. ``log``: what the device did up to then (a
+    ``DeviceLog``, when there is one), so a stopped job still reports where it got to."""
+
+    log: Any = None
 
 
 class LimitError(DeviceError):

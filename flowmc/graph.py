@@ -8,6 +8,11 @@ load -> save of a saved file is byte-identical and a crash never leaves half a f
 Params are stored by name as plain JSON; they are checked against the node type's
 params model by validation (``flowmc.runtime``), not here, so a file naming a node
 type this flowmc does not know still loads and round-trips.
+
+Structure nodes (loops, case) hold their bodies inside the file, under the node
+(``"bodies": {"body": {...}}``): a body reads in place, beside the wires that feed it, and
+a change to it diffs as a change to that node. Reusable graphs stay separate files
+(sub-graphs, ``file``); docs/structures.md says why.
 """
 
 from __future__ import annotations
@@ -18,7 +23,7 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
@@ -36,6 +41,10 @@ __all__ = [
     "InterfaceInput",
     "InterfaceOutput",
     "Interface",
+    "Body",
+    "Comment",
+    "Label",
+    "View",
     "Graph",
     "split_ref",
     "load",
@@ -69,13 +78,19 @@ class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", populate_by_name=True, validate_assignment=True)
 
 
+BODY_NAME_PATTERN = r"^[^\x00-\x1f\x7f]{1,80}$"  # a case label is text: anything printable, kept short
+
+
 class Node(_Model):
-    """A node: stable id, type id, params by name, canvas position (never affects a result)."""
+    """A node: stable id, type id, params by name, canvas position (never affects a result), and for a
+    structure (loop, case) the graphs it holds, by name ("body" for a loop, one per case label)."""
 
     id: str = Field(pattern=ID_PATTERN, description="Stable node id, unique in the graph")
     type: str = Field(min_length=1, description="Node type id, e.g. 'path.scale' or 'lib.pocket'")
     params: dict[str, Any] = Field(default_factory=dict, description="Param values by name")
     pos: tuple[float, float] = Field((0.0, 0.0), description="Canvas position [x, y]")
+    bodies: dict[Annotated[str, Field(pattern=BODY_NAME_PATTERN)], "Body"] = Field(
+        default_factory=dict, description="Structures only: the graphs the node holds, by name")
 
 
 class Wire(_Model):
@@ -92,7 +107,7 @@ class InterfaceInput(_Model):
     type: PortType
     description: str = ""
     default: Any = Field(None, description="Value used when not given; null: internal ports keep their own")
-    to: list[str] = Field(min_length=1, description="Internal 'node.port' targets")
+    to: list[str] = Field(default_factory=list, description="Internal 'node.port' targets (none: not wired yet)")
 
 
 class InterfaceOutput(_Model):
@@ -109,15 +124,65 @@ class Interface(_Model):
     outputs: list[InterfaceOutput] = Field(default_factory=list)
 
 
+class Body(_Model):
+    """A graph a structure node holds: its nodes and wires (ids of its own, as in a sub-graph file)
+    and its interface, which is what the structure's ports are made from."""
+
+    nodes: list[Node] = Field(default_factory=list)
+    wires: list[Wire] = Field(default_factory=list)
+    interface: Interface = Field(default_factory=Interface)
+
+    def as_graph(self, outer: "Graph") -> "Graph":
+        """This body as a graph of its own, living where ``outer`` lives (files resolve beside it)."""
+        graph = Graph(nodes=self.nodes, wires=self.wires, interface=self.interface)
+        graph.path = outer.path
+        return graph
+
+
+_Size = Annotated[float, Field(gt=0)]
+TERMINAL_PATTERN = r"^(in|out)\.[A-Za-z_][A-Za-z0-9_]*$"
+
+
+class Comment(_Model):
+    """A comment box on the canvas: text over a frame behind nodes. View state: it never changes a result."""
+
+    id: str = Field(pattern=ID_PATTERN, description="Stable id, unique among comments and labels")
+    text: str = ""
+    pos: tuple[float, float] = Field((0.0, 0.0), description="Top-left corner [x, y], canvas pixels")
+    size: tuple[_Size, _Size] = Field((320.0, 200.0), description="[width, height], canvas pixels")
+
+
+class Label(_Model):
+    """A free text label on the canvas. View state."""
+
+    id: str = Field(pattern=ID_PATTERN, description="Stable id, unique among comments and labels")
+    text: str = ""
+    pos: tuple[float, float] = Field((0.0, 0.0), description="Top-left corner [x, y], canvas pixels")
+
+
+class View(_Model):
+    """How the graph is drawn apart from node positions: comments, labels, and where the interface's
+    input and output terminals sit (``"in.<name>"`` / ``"out.<name>"``). Never part of a result."""
+
+    comments: list[Comment] = Field(default_factory=list)
+    labels: list[Label] = Field(default_factory=list)
+    terminals: dict[Annotated[str, Field(pattern=TERMINAL_PATTERN)], tuple[float, float]] = Field(default_factory=dict)
+
+    @property
+    def empty(self) -> bool:
+        return not (self.comments or self.labels or self.terminals)
+
+
 class Graph(_Model):
     """A flowmc graph. ``path`` (not stored in the file) is where it was loaded from or saved to."""
 
-    schema_version: Literal[1] = SCHEMA_VERSION
+    schema_version: Literal[2] = SCHEMA_VERSION
     title: str = ""
     description: str = ""
     nodes: list[Node] = Field(default_factory=list)
     wires: list[Wire] = Field(default_factory=list)
     interface: Interface | None = None
+    view: View = Field(default_factory=View, description="Comments, labels, terminal places: view state only")
 
     _path: Path | None = PrivateAttr(None)
 
@@ -145,8 +210,21 @@ class Graph(_Model):
         return str(self._path) if self._path is not None else "<graph>"
 
     def fingerprint_json(self) -> str:
-        """Everything that can change a result (not title, description or positions)."""
-        return self.model_dump_json(exclude={"title": True, "description": True, "nodes": {"__all__": {"pos"}}})
+        """Everything that can change a result (not title, description, positions or the view section, in
+        bodies too)."""
+        data = self.model_dump(mode="json", exclude={"title", "description", "view"})
+        return json.dumps(_without_positions(data), sort_keys=True)
+
+
+def _without_positions(data: dict[str, Any]) -> dict[str, Any]:
+    for node in data["nodes"]:
+        del node["pos"]
+        for body in node["bodies"].values():
+            _without_positions(body)
+    return data
+
+
+Node.model_rebuild()
 
 
 def split_ref(ref: str) -> tuple[str, str]:
@@ -264,8 +342,22 @@ def _canonical(graph: Graph) -> dict[str, Any]:
     data = graph.model_dump(by_alias=True)  # python mode: NaN stays NaN and is refused, not turned into null
     if data["interface"] is None:
         del data["interface"]
+    if graph.view.empty:
+        del data["view"]
+    else:
+        data["view"]["terminals"] = dict(sorted(data["view"]["terminals"].items()))
+    return _canonical_nodes(data)
+
+
+def _canonical_nodes(data: dict[str, Any]) -> dict[str, Any]:
+    """Nodes sorted by id, wires sorted, params by name; bodies (kept in their order) the same way."""
     for node in data["nodes"]:
         node["params"] = _sorted_keys(node["params"])
+        if node["bodies"]:
+            for body in node["bodies"].values():
+                _canonical_nodes(body)
+        else:
+            del node["bodies"]
     data["nodes"].sort(key=lambda n: n["id"])
     data["wires"].sort(key=lambda w: (w["to"], w["from"]))
     return data
@@ -323,5 +415,5 @@ def json_schema() -> dict[str, Any]:
     """JSON Schema of the graph file (what ``flowmc schema`` prints)."""
     schema = Graph.model_json_schema(by_alias=True)
     schema["$id"] = "https://flowmc/graph.schema.json"
-    schema["title"] = "flowmc graph file (schema_version 1)"
+    schema["title"] = f"flowmc graph file (schema_version {SCHEMA_VERSION})"
     return schema

@@ -1,7 +1,11 @@
 """Schema-version migrations of graph files: the one place that knows old formats.
 
-``MIGRATIONS[n]`` turns a raw (parsed JSON) graph of version ``n`` into version ``n + 1``.
-There is only version 1 so far, so the table is empty; an unknown version is refused.
+``MIGRATIONS[n]`` turns a raw (parsed JSON) graph of version ``n`` into version ``n + 1``; an
+unknown version is refused.
+
+- 1 -> 2: version 2 lets a node hold ``bodies`` (the graphs of loops and case structures) and adds the
+  optional ``view`` section (comments, labels, interface terminal places); a version-1 file is a
+  version-2 file whose nodes hold no bodies and that has no view, so it loads unchanged.
 """
 
 from __future__ import annotations
@@ -12,9 +16,14 @@ from flowmc.errors import GraphError
 
 __all__ = ["SCHEMA_VERSION", "MIGRATIONS", "migrate"]
 
-SCHEMA_VERSION: Final = 1
+SCHEMA_VERSION: Final = 2
 
-MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {}
+
+def _to_2(raw: dict[str, Any]) -> dict[str, Any]:
+    return {**raw, "schema_version": 2}
+
+
+MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {1: _to_2}
 
 
 def migrate(raw: Any, where: str) -> Any:

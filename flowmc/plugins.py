@@ -18,15 +18,16 @@ and never stops the others.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.util
 import os
 import pkgutil
+import re
 import sys
 import threading
-import tomllib
-from importlib import metadata, resources
+from importlib import resources
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -67,17 +68,33 @@ def default_registry() -> Registry:
 
 def build_registry(*, node_folders: Iterable[str | os.PathLike] = (), entry_points: bool = True,
                    config: bool = True) -> Registry:
-    """A registry from the built-in nodes, entry points, the config's node folders and ``node_folders``."""
+    """A registry from the built-in nodes, entry points, the config's node folders and ``node_folders``.
+
+    Built-in node modules and entry points are deferred: a module is imported when one of its types
+    is first looked up (its ids are read from its source, ``type_id = "..."``), entry points when a
+    type is not found elsewhere or every type is listed. Node folders load at once."""
     registry = Registry(library=GraphLibrary([package_library()]))
+    folder = Path(flowmc.nodes.__file__).parent
     for info in sorted(pkgutil.iter_modules(flowmc.nodes.__path__), key=lambda m: m.name):
-        _load_module(registry, f"{flowmc.nodes.__name__}.{info.name}")
+        name = f"{flowmc.nodes.__name__}.{info.name}"
+        registry.defer(functools.partial(_load_module, name), _declared_ids(folder / f"{info.name}.py"))
     if entry_points:
-        for entry in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
-            _load_entry_point(registry, entry)
+        registry.defer(_load_entry_points)
     folders = [*(_config_folders(registry) if config else []), *(Path(f) for f in node_folders)]
-    for folder in folders:
-        add_node_folder(registry, folder)
+    for node_folder in folders:
+        add_node_folder(registry, node_folder)
     return registry
+
+
+_TYPE_ID_LINE = re.compile(r"""^\s+type_id\s*=\s*["']([a-z0-9_.]+)["']""", re.M)
+
+
+def _declared_ids(source: Path) -> list[str]:
+    """The type ids a node module declares, read from its text without importing it."""
+    try:
+        return _TYPE_ID_LINE.findall(source.read_text(encoding="utf-8"))
+    except OSError:
+        return []
 
 
 def _add_all(registry: Registry, classes: Iterable[type[NodeType]], origin: str) -> list[str]:
@@ -92,7 +109,7 @@ def _add_all(registry: Registry, classes: Iterable[type[NodeType]], origin: str)
     return added
 
 
-def _load_module(registry: Registry, name: str) -> None:
+def _load_module(name: str, registry: Registry) -> None:
     try:
         importlib.import_module(name)
     except Exception as exc:  # a broken module must not break every graph
@@ -101,7 +118,15 @@ def _load_module(registry: Registry, name: str) -> None:
     _add_all(registry, declared_in(name), name)
 
 
-def _load_entry_point(registry: Registry, entry: metadata.EntryPoint) -> None:
+def _load_entry_points(registry: Registry) -> None:
+    from importlib import metadata  # scanning the installed packages costs time: only when needed
+
+    for entry in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+        _load_entry_point(registry, entry)
+
+
+def _load_entry_point(registry: Registry, entry: Any) -> None:
+    """One ``importlib.metadata.EntryPoint``."""
     origin = f"entry point {entry.name} ({entry.value})"
     try:
         target: Any = entry.load()
@@ -156,6 +181,8 @@ def _config_folders(registry: Registry) -> list[Path]:
     path = config_path()
     if not path.is_file():
         return []
+    import tomllib
+
     where = f"config {path}"
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))

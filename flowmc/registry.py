@@ -18,10 +18,11 @@ import contextlib
 import itertools
 import keyword
 import re
+import threading
 import types
 import typing
 from pathlib import Path
-from typing import Any, ClassVar, Iterable, Literal, Protocol
+from typing import Any, Callable, ClassVar, Iterable, Literal, Protocol
 
 from pydantic import BaseModel, ConfigDict
 
@@ -37,6 +38,7 @@ __all__ = [
     "NodeType",
     "NoParams",
     "Registry",
+    "Loader",
     "LibrarySource",
     "register",
     "declared_in",
@@ -73,6 +75,8 @@ class NodeType:
     fixed_params: ClassVar[tuple[str, ...]] = ()  # scalar params that cannot be fed by a wire
     host_resources: ClassVar[tuple[str, ...]] = ()  # what a run holds on its host, e.g. "linuxcnc" (one per host)
     reads: ClassVar[tuple[str, ...]] = ()  # params naming every file or folder it reads: cached while they are unchanged
+    moves: ClassVar[bool] = False  # drives a device: prepare() a job when the graph runs, start() it at Start
+    start_inputs: ClassVar[tuple[str, ...]] = ()  # inputs only start() needs (an earlier device's log)
 
     @classmethod
     def ports(cls, params: Any) -> Ports:
@@ -92,6 +96,14 @@ class NodeType:
     def run(self, ctx: Any, params: Any, /, *args: Any, **inputs: Any) -> dict[str, Any]:
         """Subclasses name their inputs: ``run(self, ctx, params, path, feed=None)``. (``*args`` is never
         passed; with ``**inputs`` it lets a type checker accept every subclass's own signature.)"""
+        raise NotImplementedError
+
+    def prepare(self, ctx: Any, params: Any, /, *args: Any, **inputs: Any) -> Any:
+        """A device node (``moves``): the job, pre-flighted, from every input but ``start_inputs``. Nothing moves."""
+        raise NotImplementedError
+
+    def start(self, ctx: Any, job: Any, /, *args: Any, **start_inputs: Any) -> dict[str, Any]:
+        """A device node at the explicit Start (``ctx.start``): run ``job`` on its device; the outputs."""
         raise NotImplementedError
 
 
@@ -163,7 +175,16 @@ def _check_declaration(cls: type) -> None:
         fail("Params must be a pydantic BaseModel subclass")
     if cls.Params.model_config.get("extra") != "forbid":
         fail('Params must set model_config = ConfigDict(extra="forbid")')
-    if cls.run is NodeType.run:
+    if cls.moves:
+        if cls.prepare is NodeType.prepare or cls.start is NodeType.start:
+            fail("a node that moves (moves = True) must define prepare(ctx, params, **inputs) and "
+                 "start(ctx, job, **start_inputs)")
+        if cls.pure:
+            fail("a node that moves cannot be pure")
+        unknown = [name for name in cls.start_inputs if name not in {p.name for p in cls.inputs}]
+        if unknown:
+            fail(f"start_inputs name inputs it does not have: {unknown}")
+    elif cls.run is NodeType.run:
         fail("must define run(self, ctx, params, **inputs)")
     if not all(isinstance(p, In) for p in cls.inputs) or not all(isinstance(p, Out) for p in cls.outputs):
         fail("inputs must be a tuple of In(...), outputs a tuple of Out(...)")
@@ -241,6 +262,11 @@ class LibrarySource(Protocol):
 class Registry:
     """Node types by id, the library graphs they may use, and what failed to load.
 
+    A source of types may be deferred (``defer``): its module is imported only when one of its
+    type ids is looked up, or when every type is listed, so a command that needs a few types
+    does not import them all. Loading a deferred source is not a change (``generation`` stays):
+    the registry offered those types already.
+
     >>> reg = Registry()
     >>> "basic.add" in reg
     False
@@ -256,6 +282,10 @@ class Registry:
         self.library = library
         self.failures: dict[str, str] = {}  # where (a module, an entry point, a folder) -> what went wrong
         self._generation = next(_generations)
+        self._pending: list[Loader] = []  # deferred sources not loaded yet, in the order given
+        self._by_id: dict[str, Loader] = {}  # type ids a deferred source says it holds
+        self._lock = threading.RLock()
+        self._loading = False
         for cls in node_types:
             self.add(cls)
 
@@ -267,61 +297,110 @@ class Registry:
     def _changed(self) -> None:
         self._generation = next(_generations)
 
+    def defer(self, load: Loader, type_ids: Iterable[str] | None = None) -> None:
+        """A source loaded on first need: ``load(registry)`` adds its types (``add``) and records its
+        failures (``failures``). ``type_ids``: the ids it holds when known without loading it."""
+        with self._lock:
+            self._pending.append(load)
+            for type_id in type_ids or ():
+                self._by_id.setdefault(type_id, load)
+
+    def _load(self, sources: list[Loader]) -> None:
+        with self._lock:
+            generation, loading = self._generation, self._loading
+            self._loading = True
+            try:
+                for load in sources:
+                    if load in self._pending:
+                        self._pending.remove(load)
+                        load(self)
+            finally:
+                self._loading, self._generation = loading, generation
+
+    def _load_all(self) -> None:
+        if self._pending and not self._loading:
+            self._load(list(self._pending))
+
     def add(self, cls: type[NodeType], origin: str = "") -> type[NodeType]:
         """Add a node type (checked as ``@register`` checks it); usable as a class decorator.
 
-        TypeError when another class already has its type id."""
-        if cls not in _checked:
-            _check_declaration(cls)
-            _checked.add(cls)
-        existing = self._types.get(cls.type_id)
-        if existing is not None and existing is not cls and _name(existing) != _name(cls):
-            raise TypeError(f"type_id {cls.type_id!r} of {_name(cls)} is already used by {_name(existing)}")
-        self._types[cls.type_id] = cls
-        self._origins[cls.type_id] = origin or cls.__module__
-        self._changed()
-        return cls
+        Deferred sources load first (they came earlier). TypeError when another class already has its type id."""
+        with self._lock:
+            self._load_all()
+            if cls not in _checked:
+                _check_declaration(cls)
+                _checked.add(cls)
+            existing = self._types.get(cls.type_id)
+            if existing is not None and existing is not cls and _name(existing) != _name(cls):
+                raise TypeError(f"type_id {cls.type_id!r} of {_name(cls)} is already used by {_name(existing)}")
+            self._types[cls.type_id] = cls
+            self._origins[cls.type_id] = origin or cls.__module__
+            self._changed()
+            return cls
 
     register = add
 
     def remove(self, type_id: str) -> None:
-        if self._types.pop(type_id, None) is not None:
-            self._origins.pop(type_id, None)
-            self._changed()
+        with self._lock:
+            self._load_all()
+            if self._types.pop(type_id, None) is not None:
+                self._origins.pop(type_id, None)
+                self._changed()
 
     def copy(self) -> Registry:
         """An independent registry with the same types and library (tests add their own types to one)."""
-        other = Registry(library=self.library)
-        other._types, other._origins, other.failures = dict(self._types), dict(self._origins), dict(self.failures)
-        return other
+        with self._lock:
+            self._load_all()
+            other = Registry(library=self.library)
+            other._types, other._origins, other.failures = dict(self._types), dict(self._origins), dict(self.failures)
+            return other
 
     def __contains__(self, type_id: object) -> bool:
-        return type_id in self._types
+        return isinstance(type_id, str) and type_id in self.types()
 
     def types(self) -> dict[str, type[NodeType]]:
-        """Node types from code, by id, sorted. Library graphs are listed by ``describe_all``."""
-        return dict(sorted(self._types.items()))
+        """Node types from code, by id, sorted (every deferred source loads). Library graphs are in ``describe_all``."""
+        with self._lock:
+            self._load_all()
+            return dict(sorted(self._types.items()))
 
     def origin(self, type_id: str) -> str:
         """Where a type came from: its module, an entry point or a node folder."""
+        self.types()
         return self._origins.get(type_id, "library graph" if type_id.startswith("lib.") else "")
+
+    def _code_type(self, type_id: str) -> type[NodeType] | None:
+        cls = self._types.get(type_id)
+        if cls is None and self._pending and not self._loading:
+            with self._lock:
+                source = self._by_id.get(type_id)
+                if source is not None:
+                    self._load([source])
+                cls = self._types.get(type_id)
+                if cls is None:  # a source may hold ids it did not announce
+                    self._load_all()
+                    cls = self._types.get(type_id)
+        return cls
 
     def lookup(self, type_id: str, graph_dir: Any = None) -> type[NodeType]:
         """The class for ``type_id``; ``lib.<stem>`` ids are library graphs (beside ``graph_dir`` first).
 
         Raises GraphError when the type is unknown.
         """
-        cls = self._types.get(type_id)
-        if cls is not None:
-            return cls
-        if type_id.startswith("lib.") and self.library is not None:
-            found = self.library.lookup(type_id, Path(graph_dir) if graph_dir is not None else None, self)
-            if found is not None:
-                return found
+        if type_id.startswith("lib."):
+            if self.library is not None:
+                found = self.library.lookup(type_id, Path(graph_dir) if graph_dir is not None else None, self)
+                if found is not None:
+                    return found
+        else:
+            cls = self._code_type(type_id)
+            if cls is not None:
+                return cls
         raise GraphError(f"unknown node type {type_id!r}", where=None)
 
     def unknown_type_hint(self) -> str:
         """What to add to an unknown-type message: the node sources that failed to load."""
+        self.types()
         if not self.failures:
             return ""
         return " (node modules that failed to load: " + "; ".join(f"{m}: {e}" for m, e in self.failures.items()) + ")"
@@ -334,10 +413,13 @@ class Registry:
 
     def describe_all(self, graph_dir: Any = None) -> list[dict[str, Any]]:
         """Every type, then the library graphs (``lib.*``) seen from ``graph_dir``, sorted by type id."""
-        found: dict[str, type[NodeType]] = dict(self._types)
+        found: dict[str, type[NodeType]] = self.types()
         if self.library is not None:
             found.update(self.library.types(Path(graph_dir) if graph_dir is not None else None, self))
         return [describe(found[t]) for t in sorted(found)]
+
+
+Loader = Callable[[Registry], None]
 
 
 def _name(cls: type) -> str:

@@ -20,8 +20,8 @@ from flowmc.devices.card import MotionCard
 from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 
-__all__ = ["DeviceOptions", "SimOptions", "GrblOptions", "open_device", "check_spec", "register_backend",
-           "known_devices"]
+__all__ = ["DeviceOptions", "SimOptions", "GrblOptions", "open_device", "unconnected", "check_spec",
+           "register_backend", "known_devices"]
 
 
 @dataclass(frozen=True)
@@ -123,6 +123,16 @@ def check_spec(spec: str) -> None:
     name = spec.strip().partition(":")[0] if isinstance(spec, str) else ""
     if name not in _BACKENDS:
         raise DeviceError(f"unknown device {spec!r}; known: {', '.join(known_devices())}", where="device")
+
+
+def unconnected(spec: str, machine: Machine | None = None, options: DeviceOptions | None = None) -> MotionCard:
+    """The card ``spec`` names, made but not connected: a job checks its program against it before
+    anything is opened (the GRBL simulator is started, like a port opened, only on connect)."""
+    check_spec(spec)
+    name, _, argument = spec.strip().partition(":")
+    if name == "grbl-sim":
+        name, argument = "grbl", "grbl-sim"
+    return _BACKENDS[name](argument, machine if machine is not None else Machine(), options or DeviceOptions())
 
 
 def open_device(spec: str = "sim", machine: Machine | None = None, options: DeviceOptions | None = None,

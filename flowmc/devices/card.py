@@ -48,6 +48,11 @@ class MotionCard(ABC):
         """Pre-flight against this card's machine and output ranges; raises LimitError."""
         return preflight(motion, self.machine, signals, ranges=self.ranges)
 
+    def check_program(self, motion: Trajectory | Steps, signals: Signal | None = None) -> PreflightReport:
+        """Everything this card can say against a program before it runs, without connecting: the
+        pre-flight, and what the card refuses of its signals (a job is prepared with this)."""
+        return self.check(motion, signals)
+
     @abstractmethod
     def run(self, motion: Trajectory | Steps, signals: Signal | None = None, *, check: bool = True) -> DeviceLog:
         """Execute a program (after pre-flight unless ``check=False``) and return the log."""

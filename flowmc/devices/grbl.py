@@ -334,6 +334,11 @@ class GrblCard(MotionCard):
             preflight(motion, self.machine, signals, ranges=self.ranges)
         return self._stream(motion_gcode(motion, self.machine, signals, self.tolerance, self.pen))
 
+    def check_program(self, motion: Trajectory | Steps, signals: Signal | None = None):
+        report = self.check(motion, signals)
+        motion_gcode(motion, self.machine, signals, self.tolerance, self.pen)  # what GRBL cannot do is refused
+        return report
+
     def home(self, axes: tuple[str, ...] | None = None, method: str = "switch") -> DeviceLog:
         if method != "switch":
             raise DeviceError("GRBL homes with its own switch cycle ($H) only", where=self.spec)

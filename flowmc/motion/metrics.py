@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 import flowmc.budget as budget
 from flowmc.motion.limits import AxisLimits
@@ -110,6 +109,8 @@ class _PolylineDistance:
         self.a = pts[self.owner] + frac[:, None] * diff[self.owner]
         self.b = self.a + diff[self.owner] / splits[self.owner, None]
         self.h = float(np.linalg.norm(self.b - self.a, axis=1).max()) if len(self.a) else 0.0
+        from scipy.spatial import cKDTree  # scipy on first use: `flowmc validate` starts without it
+
         self.tree = cKDTree(0.5 * (self.a + self.b)) if len(self.a) else None
         self.point = pts[0] if len(pts) else None
 

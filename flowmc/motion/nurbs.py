@@ -9,13 +9,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from math import comb
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.interpolate import BSpline, PPoly
-from scipy.ndimage import maximum_filter1d
 
 import flowmc.budget as budget
 from flowmc.errors import PathError, PlanningError
+
+if TYPE_CHECKING:
+    from scipy.interpolate import PPoly
 
 __all__ = [
     "clamped_uniform_knots",
@@ -109,6 +111,8 @@ class Nurbs:
         self.dim = self.ctrl.shape[1]
         self.u0 = float(self.knots[self.degree])
         self.u1 = float(self.knots[len(self.ctrl)])
+        from scipy.interpolate import BSpline  # scipy on first use: `flowmc validate` starts without it
+
         hom = np.hstack([self.ctrl * self.weights[:, None], self.weights[:, None]])
         self._hom = BSpline(self.knots, hom, self.degree, extrapolate=True)
         self._table = None
@@ -238,6 +242,8 @@ class ArcLengthTable:
 
 def _quintic_hermite(x, y, dy, ddy) -> PPoly:
     """Piecewise quintic matching value, first and second derivative at every node (vectorised build)."""
+    from scipy.interpolate import PPoly  # scipy on first use: `flowmc validate` starts without it
+
     h = np.diff(x)
     a = y[1:] - (y[:-1] + dy[:-1] * h + 0.5 * ddy[:-1] * h * h)
     b = (dy[1:] - dy[:-1] - ddy[:-1] * h) * h
@@ -358,6 +364,8 @@ def feed_schedule(curve: Nurbs, feed: float, period: float, *, eps: float = 1e-3
     s = np.linspace(0.0, length, n + 1)
     kappa = curve.curvature(curve.table.u_at(s, polish=0))
     half = int(np.ceil(step_max / (length / n))) + 1
+    from scipy.ndimage import maximum_filter1d  # scipy on first use: `flowmc validate` starts without it
+
     kappa = maximum_filter1d(kappa, 2 * half + 1, mode="nearest")
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.where(kappa > 0, 1.0 / kappa, np.inf)

@@ -11,8 +11,12 @@ side) an arc of radius r about the original corner bridges it; where they overla
 corner) both are trimmed at their intersection. A chain that ends where it started is closed and
 its last segment is joined to its first too. Rapids split the path into chains and are re-aimed at
 the offset chains' new ends; moves without XY travel (plunges, dwells) are kept at the offset point.
-Only adjacent segments are compared: an offset that crosses a non-adjacent part of the path (a slot
-narrower than the tool) is not detected.
+Adjacent segments are compared exactly; then every tool-centre segment is checked against the whole
+programmed contour (pyclipper, flowmc.motion.clearance): a stretch that passes closer than the tool radius
+to any part of it (a slot narrower than the tool, a concave arc tighter than the radius, a wall the
+offset runs into) would gouge it. ``gouge="refuse"`` refuses the path naming both segments;
+``gouge="trim"`` leaves such stretches uncut (the tool lifts over them: a rapid with the tool up), and
+keeps the rest exact, arcs as arcs.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PathError
+from flowmc.motion.clearance import gouges, sub_segment
 from flowmc.motion.path import MAX_COORD_MM, Arc, Dwell, Line, Path, Segment, describe_segment
 
 __all__ = ["offset_path"]
@@ -303,13 +308,17 @@ def _relinked(rapids: list[tuple[int, Segment]], start: np.ndarray | None, end: 
     return out
 
 
-def offset_path(path: Path, radius: float, side: Literal["left", "right"]) -> Path:
+def offset_path(path: Path, radius: float, side: Literal["left", "right"],
+                gouge: Literal["refuse", "trim"] = "refuse") -> Path:
     """The path offset by ``radius`` to the ``side`` of travel (left: G41, right: G42), in XY.
 
     Lines and XY arcs only; errors name the segment, 1-based with its source (``segment 4 (row 4)``).
+    Where the tool would cut into the programmed contour, ``gouge`` refuses or trims (see the module).
     """
     if side not in ("left", "right"):
         raise PathError(f"offset side must be 'left' or 'right', got {side!r}")
+    if gouge not in ("refuse", "trim"):
+        raise PathError(f"gouge must be 'refuse' or 'trim', got {gouge!r}")
     if not (0 <= radius <= MAX_COORD_MM):
         raise PathError(f"tool radius must be within 0 to {MAX_COORD_MM:g} mm, got {radius}")
     if radius == 0 or not path.segments:
@@ -326,4 +335,41 @@ def offset_path(path: Path, radius: float, side: Literal["left", "right"]) -> Pa
         before = done[k - 1][-1].end if k > 0 and done[k - 1] else None
         after = done[k + 1][0].start if k + 1 < len(runs) and done[k + 1] else None
         out.extend(_relinked(items, before, after))
-    return Path(out)
+    contour = [(i, seg) for i, seg in enumerate(path.segments) if not seg.rapid and _moves_in_xy(i, seg)]
+    found = gouges(list(enumerate(out)), contour, radius)
+    if not found:
+        return Path(out)
+    if gouge == "refuse":
+        k, seg, s0, s1, hit, dist = found[0]
+        raise PathError(f"the tool (radius {radius:g} mm) would cut into {describe_segment(hit, path.segments[hit].source)}"
+                        f": its centre passes {dist:.4f} mm from it for {s1 - s0:.4f} mm of this offset segment (a "
+                        f"slot narrower than the tool, or a concave arc smaller than the radius); choose gouge "
+                        f"'trim' to leave that stretch uncut", where=describe_segment(k, seg.source))
+    return Path(_trimmed(out, found))
+
+
+def _trimmed(out: list[Segment], found: list) -> list[Segment]:
+    """The tool path with the gouging stretches lifted over (rapids with the tool up)."""
+    spans: dict[int, list[tuple[float, float]]] = {}
+    for k, _seg, s0, s1, _hit, _dist in found:
+        spans.setdefault(k, []).append((s0, s1))
+    result: list[Segment] = []
+    for k, seg in enumerate(out):
+        cuts = sorted(spans.get(k, []))
+        if not cuts:
+            result.append(seg)
+            continue
+        pos = 0.0
+        for a, b in cuts:
+            if b <= pos:
+                continue
+            a = max(a, pos)
+            if a > pos + _TOL:
+                result.append(sub_segment(seg, pos, a))
+            result.append(Line(seg.point_at(a), seg.point_at(b), **_state(seg, rapid=True, tool_down=False,
+                                                                        outputs=(), analog=(),
+                                                                        source=f"{seg.source} (gouge lifted over)")))
+            pos = b
+        if seg.length - pos > _TOL:
+            result.append(sub_segment(seg, pos, seg.length))
+    return result

@@ -779,12 +779,23 @@ class Path:
             return other
         if not other.segments:
             return self
-        link = []
-        if np.linalg.norm(other.start - self.end) > 1e-9:
-            first = other.segments[0]
-            link.append(Line(self.end, other.start, feed=rapid_feed or first.feed, rapid=True, tool_down=False,
-                             spindle=first.spindle, source="join"))
-        return Path(self.segments + tuple(link) + other.segments)
+        return Path.joined((self, other), rapid_feed)
+
+    @staticmethod
+    def joined(paths: Iterable["Path"], rapid_feed: float | None = None) -> "Path":
+        """The paths one after another, linked as ``concat`` links two (in one pass, however many)."""
+        segments: list[Segment] = []
+        end = None
+        for path in paths:
+            if not path.segments:
+                continue
+            if end is not None and np.linalg.norm(path.start - end) > 1e-9:
+                first = path.segments[0]
+                segments.append(Line(end, path.start, feed=rapid_feed or first.feed, rapid=True, tool_down=False,
+                                     spindle=first.spindle, source="join"))
+            segments.extend(path.segments)
+            end = path.end
+        return Path(segments)
 
     def with_feed(self, feed: float) -> "Path":
         """Every non-rapid segment at the given feed (mm/s)."""

@@ -17,12 +17,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 import flowmc.budget as budget
 from flowmc.errors import PlanningError
 
 __all__ = ["Profile", "plan_trapezoid", "plan_exponential", "plan_scurve", "sample_profile"]
+
+
+def _brentq(*args, **kwargs) -> float:
+    from scipy.optimize import brentq  # scipy on first use: `flowmc validate` starts without it
+
+    return float(brentq(*args, **kwargs))
+
 
 _WHERE = "velocity profile"
 
@@ -265,7 +271,7 @@ def plan_scurve(length: float, v0: float, v1: float, vmax: float, amax: float, j
         if length <= 0:
             reach = v0
         else:
-            reach = brentq(lambda x: _phase_distance(v0, x, amax, jmax) - length, v0, v1, xtol=1e-13, rtol=1e-15)
+            reach = _brentq(lambda x: _phase_distance(v0, x, amax, jmax) - length, v0, v1, xtol=1e-13, rtol=1e-15)
         if not lower_end:
             raise PlanningError(f"S-curve: v1={v1:g} is unreachable from v0={v0:g} within L={length:g} "
                                 f"(at most {reach:g})", where=_WHERE)
@@ -282,7 +288,7 @@ def plan_scurve(length: float, v0: float, v1: float, vmax: float, amax: float, j
     elif total(lo) >= length:
         vp = lo
     else:
-        vp = brentq(lambda x: total(x) - length, lo, vmax, xtol=1e-13, rtol=1e-15)
+        vp = _brentq(lambda x: total(x) - length, lo, vmax, xtol=1e-13, rtol=1e-15)
     cruise = max(length - total(vp), 0.0) / vp if vp > 0 else 0.0
     tj1, ta1 = _phase(vp - v0, amax, jmax)
     tj2, ta2 = _phase(vp - v1, amax, jmax)

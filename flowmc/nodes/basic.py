@@ -1,4 +1,4 @@
-"""Basic nodes: constants, arithmetic, a range check and a report of named numbers.
+"""Basic nodes: constants, arithmetic, a comparison, a range check and a report of named numbers.
 
 Arithmetic operands are params, so each can be typed in or fed by a wire to ``node.a``.
 """
@@ -6,7 +6,8 @@ Arithmetic operands are params, so each can be typed in or fed by a wire to ``no
 from __future__ import annotations
 
 import math
-from typing import Any
+import operator
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
@@ -131,6 +132,27 @@ class Divide(_Binary):
         if b == 0:
             raise NodeError("division by zero (b = 0)")
         return a / b
+
+
+class CompareParams(BinaryParams):
+    op: Literal["<", "<=", ">", ">=", "==", "!="] = Field(">=", description="How a is compared with b")
+
+
+_COMPARE = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge, "==": operator.eq,
+            "!=": operator.ne}
+
+
+@register
+class Compare(NodeType):
+    type_id = "basic.compare"
+    title = "Compare"
+    category = "Math"
+    description = "a op b as a Bool (a While loop's stop condition, a case selector)."
+    Params = CompareParams
+    outputs = (Out("result", "Bool", doc="True when a op b holds"),)
+
+    def run(self, ctx, params: CompareParams):
+        return {"result": bool(_COMPARE[params.op](params.a, params.b))}
 
 
 class RatioParams(_Params):

@@ -3,19 +3,23 @@
 Signal nodes (Digital I/O, PWM, Analog/spindle) do not touch a device: they add events at times or
 at segment starts of a program, chained from node to node, for Card output to send with the program
 (or "I/O now" to set at once). With an untimed step stream, event times count ticks (the ``Steps``
-convention). Device nodes are not pure (never cached). Their optional ``after`` input takes the log
-of an earlier device node: it orders them (Home, Jog, then Card output), and the simulated card
-carries on from the state that log ends in (where homing left the axes, which outputs are on).
+convention).
+
+Nodes that drive a device (Card output, Home, Jog, I/O now) run in two phases: when the graph runs
+they only prepare a job (pre-flighted; nothing opens, nothing moves) and are *ready*; an explicit
+Start (the editor's button, ``flowmc run``) hands the job to a ``JobRunner``. Their optional
+``after`` input takes the log of an earlier device node: it orders them (Home, Jog, then Card
+output), only Start needs it, and the simulated card carries on from the state that log ends in.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions, check_spec, open_device
+from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions, check_spec
 from flowmc.devices.log import DeviceLog
 from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CARD_6050
@@ -24,6 +28,9 @@ from flowmc.motion.machine import Axis, Machine, default_machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 from flowmc.registry import In, NodeType, Out, register
+
+if TYPE_CHECKING:  # the job machinery is imported when a job is prepared: `flowmc validate` stays light
+    from flowmc.devices.jobs import Job
 
 _MOTION_IN = In("motion", ("Trajectory", "Steps"), doc="The program: setpoints or a step stream")
 _MACHINE_IN = In("machine", "Machine", doc="Axis limits and period (default: the default machine)", default=None)
@@ -63,15 +70,13 @@ def _machine_for(machine: Machine | None, motion=None) -> Machine:
     return default_machine()
 
 
-def _open(params: _DeviceParams, machine: Machine, after: DeviceLog | None):
-    """Open the device; a card carries on from ``after``'s end state when that came from one of its kind."""
+def _options(params: _DeviceParams) -> DeviceOptions:
+    """The device's options from the node's params (the state to resume from comes at Start)."""
     card = params if isinstance(params, CardOutputParams) else None  # only Card output drives a pen
-    options = DeviceOptions(
+    return DeviceOptions(
         sim=SimOptions(closed_loop=params.closed_loop, estop_input=params.estop_input or None, analog=params.analog,
                        pen_output=(card.pen_output or None) if card else None),
-        grbl=GrblOptions(card.grbl_pen_down, card.grbl_pen_up) if card else GrblOptions(),
-        resume=after.state if after is not None else None)
-    return open_device(params.device, machine, options)
+        grbl=GrblOptions(card.grbl_pen_down, card.grbl_pen_up) if card else GrblOptions())
 
 
 def _report(ctx, log: DeviceLog) -> None:
@@ -79,6 +84,28 @@ def _report(ctx, log: DeviceLog) -> None:
         ctx.log(f"{event.kind} at t={event.t:.3f} s{' ' + event.axis if event.axis else ''}: {event.message}")
     if log.outcome != "done":
         ctx.log(f"stopped: {log.outcome}")
+
+
+class _DeviceNode(NodeType):
+    """A node that drives a device: ``prepare`` makes its job when the graph runs; ``start`` runs it at Start."""
+
+    pure = False
+    moves = True
+    start_inputs = ("after",)
+
+    def start(self, ctx, job: Job, after: DeviceLog | None = None) -> dict:
+        try:
+            from flowmc.devices.jobs.prepare import start_job
+
+            runner = start_job(job, after, ctx.start, ctx.node_id)
+        except DeviceError as err:
+            if err.log is not None:
+                _report(ctx, err.log)
+            raise
+        log = runner.log
+        assert log is not None  # a runner that ended without a fault has its log
+        _report(ctx, log)
+        return {"log": log, **{name: float(value) for name, value in runner.extra.items()}}
 
 
 # ---------------------------------------------------------------- machine
@@ -144,26 +171,30 @@ class CardOutputParams(_DeviceParams):
     grbl_pen_down: Annotated[str, Field(description="GRBL: command for tool (pen) down (the pen on the "
                                                     "spindle output, e.g. M3 S1000; empty: no pen)")] = ""
     grbl_pen_up: Annotated[str, Field(description="GRBL: command for tool (pen) up, e.g. M5")] = ""
+    safe_outputs_on: Annotated[list[int], Field(description="Digital outputs that stay on when a job is stopped, "
+                                                            "e-stopped or faults (a brake release, a clamp); every "
+                                                            "other output, the spindle, PWM and the pen go off")] = []
 
 
 @register
-class CardOutput(NodeType):
+class CardOutput(_DeviceNode):
     type_id = "device.card_output"
     title = "Card output"
     category = "Devices"
-    description = "Check a program (pre-flight), send it to a motion card, and return what the card did."
-    pure = False
+    description = "Check a program (pre-flight) as a job for a motion card; Start sends it and returns what the card did."
     Params = CardOutputParams
     inputs = (_MOTION_IN, _SIGNALS_IN, _MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def run(self, ctx, params: CardOutputParams, motion, signals=None, machine=None, after=None):
+    def prepare(self, ctx, params: CardOutputParams, motion, signals=None, machine=None) -> Job:
         machine = _machine_for(machine, motion)
-        with _open(params, machine, after) as card:
-            card.check(motion, signals)
-            log = card.run(motion, signals, check=False)
-        _report(ctx, log)
-        return {"log": log}
+        from flowmc.devices.jobs import SafeOutputs
+        from flowmc.devices.jobs.prepare import program_job
+
+        job = program_job(params.device, machine, motion, signals, _options(params),
+                          safe=SafeOutputs(tuple(params.safe_outputs_on)), name=ctx.node_id)
+        ctx.log(f"ready: {job.describe()}; pre-flight passed")
+        return job
 
 
 class HomeParams(_DeviceParams):
@@ -174,26 +205,20 @@ class HomeParams(_DeviceParams):
 
 
 @register
-class Home(NodeType):
+class Home(_DeviceNode):
     type_id = "device.home"
     title = "Home"
     category = "Devices"
     description = "Home axes on a device (home switch, or midway between the limit switches) and zero them."
-    pure = False
     Params = HomeParams
     inputs = (_MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def run(self, ctx, params: HomeParams, machine=None, after=None):
-        machine = _machine_for(machine)
+    def prepare(self, ctx, params: HomeParams, machine=None) -> Job:
         axes = tuple(params.axes.replace(",", "").replace(" ", "").upper()) or None
-        with _open(params, machine, after) as card:
-            log = card.home(axes, params.method)
-        _report(ctx, log)
-        if log.outcome != "done":
-            raise NodeError(f"homing ended with {log.outcome}: "
-                            + "; ".join(e.message for e in log.events if e.kind != "home"))
-        return {"log": log}
+        from flowmc.devices.jobs.prepare import home_job
+
+        return home_job(params.device, _machine_for(machine), axes, params.method, _options(params), name=ctx.node_id)
 
 
 class JogParams(_DeviceParams):
@@ -204,26 +229,20 @@ class JogParams(_DeviceParams):
 
 
 @register
-class Jog(NodeType):
+class Jog(_DeviceNode):
     type_id = "device.jog"
     title = "Jog"
     category = "Devices"
     description = "Move one axis of a device by a distance at a speed (e.g. to set the table before drawing)."
-    pure = False
     Params = JogParams
     inputs = (_MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def run(self, ctx, params: JogParams, machine=None, after=None):
-        machine = _machine_for(machine)
-        axis = params.axis.strip().upper()
-        with _open(params, machine, after) as card:
-            log = card.jog(axis, params.distance, params.speed)
-        _report(ctx, log)
-        if log.outcome != "done":
-            raise NodeError(f"the jog of {axis} ended with {log.outcome}: "
-                            + "; ".join(e.message for e in log.events))
-        return {"log": log}
+    def prepare(self, ctx, params: JogParams, machine=None) -> Job:
+        from flowmc.devices.jobs.prepare import jog_job
+
+        return jog_job(params.device, _machine_for(machine), params.axis.strip().upper(), params.distance, params.speed,
+                       _options(params), name=ctx.node_id)
 
 
 # ---------------------------------------------------------------- signals along a program
@@ -357,43 +376,17 @@ class Analog(NodeType):
 # ---------------------------------------------------------------- I/O now
 
 @register
-class IONow(NodeType):
+class IONow(_DeviceNode):
     type_id = "device.io_now"
     title = "I/O now"
     category = "Devices"
     description = "Set outputs on a device at once (events in time order, times ignored) and read its inputs."
-    pure = False
     Params = _DeviceParams
     inputs = (In("signals", "Signal", doc="Outputs to set", default=None), _MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT, Out("inputs", "Number", doc="Input levels as a bit mask: bit n-1 is input n"))
 
-    def run(self, ctx, params: _DeviceParams, signals=None, machine=None, after=None):
-        machine = _machine_for(machine)
-        sig = signals if signals is not None else Signal()
-        kinds = sig.kind.tolist()
-        if "tool" in kinds:
-            raise NodeError("a tool (pen) event goes with a program: send it with Card output")
-        if "pwm_duty" in kinds and "pwm_freq" not in kinds[:kinds.index("pwm_duty")]:
-            raise NodeError("a PWM duty needs a PWM frequency before it (use the PWM node)")
-        changes, events = [], []
-        with _open(params, machine, after) as card:
-            freq = None
-            for kind, ch, value in zip(sig.kind, sig.channel, sig.value):
-                if kind == "pwm_freq":
-                    freq = float(value)
-                    continue
-                if kind == "dout":
-                    done = card.set_output(int(ch), bool(value))
-                elif kind == "pwm_duty":
-                    done = card.set_pwm(freq, float(value))
-                elif kind == "da":
-                    done = card.set_da(float(value))
-                else:
-                    done = card.set_spindle(float(value))
-                changes += done.changes
-                events += done.events
-            mask = sum(1 << (ch - 1) for ch, on in card.read_inputs().items() if on)
-            now = card.snapshot()
-        log = DeviceLog(now.device, now.axes, now.period, now.t, now.steps, now.position, now.following_error,
-                        changes, events, now.outcome, now.state)
-        return {"log": log, "inputs": float(mask)}
+    def prepare(self, ctx, params: _DeviceParams, signals=None, machine=None) -> Job:
+        from flowmc.devices.jobs.prepare import io_job
+
+        return io_job(params.device, _machine_for(machine), signals if signals is not None else Signal(),
+                      _options(params), name=ctx.node_id)

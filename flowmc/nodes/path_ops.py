@@ -1,4 +1,4 @@
-"""Path nodes that trace pictures, compensate the tool radius, move paths about and join them."""
+"""Path nodes that trace pictures, compensate the tool radius, clear pockets, move paths about and join them."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from flowmc.errors import BudgetError, PathError
+from flowmc.motion.clearance import pocket_path
 from flowmc.motion.contour import DEFAULT_METHOD, image_to_path
 from flowmc.motion.offset import offset_path
 from flowmc.motion.path import Path
@@ -74,6 +75,10 @@ class ImageContour(NodeType):
 class ToolOffsetParams(_Params):
     side: Annotated[Literal["left", "right"], Field(description="Side of travel to offset to (left: G41, right: G42)")] = "left"
     radius: Annotated[float, Field(ge=0, description="Tool radius", json_schema_extra=_MM)] = 1.0
+    gouge: Annotated[Literal["refuse", "trim"], Field(description="Where the tool would cut into the contour (a slot "
+                                                                  "narrower than the tool, a concave arc smaller "
+                                                                  "than the radius): refuse, naming the segment, or "
+                                                                  "trim (lift over it, leaving it uncut)")] = "refuse"
 
 
 @register
@@ -87,7 +92,44 @@ class ToolOffset(NodeType):
     outputs = (Out("path", "Path", doc="Tool-centre path"),)
 
     def run(self, ctx, params: ToolOffsetParams, path: Path):
-        return {"path": offset_path(path, params.radius, params.side)}
+        out = offset_path(path, params.radius, params.side, params.gouge)
+        lifted = sum(1 for seg in out if "gouge lifted over" in seg.source)
+        if lifted:
+            ctx.log(f"{lifted} stretches left uncut where the tool would gouge the contour")
+        return {"path": out}
+
+
+# ---------------------------------------------------------------- pocket
+
+class PocketParams(_Params):
+    radius: Annotated[float, Field(gt=0, description="Tool radius", json_schema_extra=_MM)] = 1.0
+    stepover: Annotated[float, Field(gt=0, description="Distance between rings (at most the tool diameter)",
+                                     json_schema_extra=_MM)] = 1.0
+    direction: Annotated[Literal["climb", "conventional"], Field(description="climb: clockwise rings (spindle "
+                                                                             "M3); conventional: counter-"
+                                                                             "clockwise")] = "climb"
+    feed: Annotated[float | None, Field(gt=0, description="Cutting feed (none: the boundary's)",
+                                        json_schema_extra=_MM_S)] = None
+    tolerance: Annotated[float, Field(gt=0, description="Largest distance between a ring's lines and the round "
+                                                        "offset", json_schema_extra=_MM)] = 0.005
+
+
+@register
+class Pocket(NodeType):
+    type_id = "path.pocket"
+    title = "Pocket"
+    category = "Path"
+    description = "Clear the inside of closed contours (islands left standing): rings inward by the step-over."
+    Params = PocketParams
+    inputs = (In("path", "Path", doc="Closed boundary contours (lines and XY arcs); inner ones are islands"),)
+    outputs = (Out("path", "Path", doc="Tool-centre rings from the middle out, the last one the tool radius inside "
+                                       "the boundary, tool-up rapids between them"),)
+
+    def run(self, ctx, params: PocketParams, path: Path):
+        out = pocket_path(path, params.radius, params.stepover, direction=params.direction, feed=params.feed,
+                          tolerance=params.tolerance)
+        ctx.log(f"{sum(seg.rapid for seg in out) + 1} loops, {out.length:.1f} mm")
+        return {"path": out}
 
 
 # ---------------------------------------------------------------- transforms

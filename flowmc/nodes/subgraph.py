@@ -124,6 +124,22 @@ def _run_bound(ctx: Any, inputs: dict[str, Any], name: str) -> dict[str, Any]:
     return dict(result.outputs)
 
 
+def _prepare_bound(ctx: Any, inputs: dict[str, Any], name: str) -> Any:
+    """A sub-graph that drives a device: its prepared run (its device nodes ready) is the node's job."""
+    given = {k: v for k, v in inputs.items() if v is not None}
+    result = ctx.child_runtime().run(ctx.binding, given)
+    if not result.ok:
+        raise NodeError("; ".join(result.errors), where=f"sub-graph {name}")
+    return result
+
+
+def _start_bound(ctx: Any, job: Any, name: str) -> dict[str, Any]:
+    result = ctx.child_runtime().start(job, ctx.start.within(ctx.node_id))
+    if not result.ok:
+        raise NodeError("; ".join(result.errors), where=f"sub-graph {name}")
+    return dict(result.outputs)
+
+
 class SubgraphParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
     file: str = Field(description="Graph file with an interface, relative to this graph's folder")
@@ -150,6 +166,12 @@ class Subgraph(NodeType):
     def run(self, ctx: Any, params: SubgraphParams, **inputs: Any) -> dict[str, Any]:
         return _run_bound(ctx, inputs, params.file)
 
+    def prepare(self, ctx: Any, params: SubgraphParams, **inputs: Any) -> Any:
+        return _prepare_bound(ctx, inputs, params.file)
+
+    def start(self, ctx: Any, job: Any) -> dict[str, Any]:
+        return _start_bound(ctx, job, ctx.node_id)
+
 
 class LibraryGraph(NodeType):
     """Base of the generated ``lib.<stem>`` types; ``file_path`` and ``lib_dir`` are set per type.
@@ -172,6 +194,12 @@ class LibraryGraph(NodeType):
 
     def run(self, ctx: Any, params: BaseModel, **inputs: Any) -> dict[str, Any]:
         return _run_bound(ctx, {**params.model_dump(), **inputs}, self.type_id)
+
+    def prepare(self, ctx: Any, params: BaseModel, **inputs: Any) -> Any:
+        return _prepare_bound(ctx, {**params.model_dump(), **inputs}, self.type_id)
+
+    def start(self, ctx: Any, job: Any) -> dict[str, Any]:
+        return _start_bound(ctx, job, self.type_id)
 
 
 _SCALAR_TYPES = {"Number": float, "Bool": bool, "Text": str}

@@ -7,6 +7,8 @@ Public API (the CLI and the editor use only this)::
     plan.issues, plan.order, plan.generations, plan.ports("n3")
     unsubscribe = rt.subscribe(lambda event: ...)
     result = rt.run(graph, inputs={"feed": 20.0})   # second call: cached nodes do not run
+    result.jobs                    # device nodes: prepared jobs; nothing has moved
+    started = rt.start(result, Start(options={"pace": "realtime"}, on_job=...))   # the explicit Start
 """
 
 from flowmc.graph import Issue
@@ -15,12 +17,14 @@ from flowmc.runtime.context import NodeContext, Site, resolve_inside
 from flowmc.runtime.events import EVENT_KINDS, Event, EventBus
 from flowmc.runtime.executor import NodeResult, RunResult, Runtime, summarize, value_matches
 from flowmc.runtime.schedule import Plan
+from flowmc.runtime.start import Start
 
 __all__ = [
     "Runtime",
     "RunResult",
     "NodeResult",
     "Plan",
+    "Start",
     "Issue",
     "Event",
     "EVENT_KINDS",

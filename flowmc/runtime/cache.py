@@ -11,7 +11,7 @@ import hashlib
 from dataclasses import dataclass
 from typing import Any, Iterable
 
-__all__ = ["static_key", "signature", "CacheEntry", "NodeCache"]
+__all__ = ["static_key", "signature", "CacheEntry", "NodeCache", "IterationCache"]
 
 
 def static_key(type_id: str, version: int, params_json: str, extra: str = "") -> bytes:
@@ -57,3 +57,39 @@ class NodeCache:
 
     def __len__(self) -> int:
         return len(self._entries)
+
+
+class IterationCache:
+    """A structure body's runs by content signature (one per loop iteration, one per case).
+
+    Each run of the structure is a generation: what it looks up or stores is kept for the next run, the
+    rest is dropped at ``end()``, so memory stays bounded by one run's iterations, as ``NodeCache`` is by
+    one entry per node."""
+
+    def __init__(self) -> None:
+        self._now: dict[bytes, CacheEntry] = {}
+        self._last: dict[bytes, CacheEntry] = {}
+
+    def begin(self) -> None:
+        self._last, self._now = {**self._last, **self._now}, {}
+
+    def end(self) -> None:
+        self._last = {}
+
+    def get(self, sig: bytes) -> CacheEntry | None:
+        entry = self._now.get(sig)
+        if entry is None:
+            entry = self._last.pop(sig, None)
+            if entry is not None:
+                self._now[sig] = entry
+        return entry
+
+    def put(self, entry: CacheEntry) -> None:
+        self._now[entry.signature] = entry
+
+    def clear(self) -> None:
+        self._now.clear()
+        self._last.clear()
+
+    def __len__(self) -> int:
+        return len(self._now) + len(self._last)

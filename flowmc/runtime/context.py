@@ -72,6 +72,8 @@ class NodeContext:
     _log: Callable[[str], None] = field(repr=False)
     binding: Any = field(default=None, repr=False)  # sub-graph node types: their bound inner plan
     _child: Callable[[], Any] | None = field(default=None, repr=False)
+    start: Any = field(default=None, repr=False)  # the explicit Start a device node's start() runs under
+    _announce: Callable[[Any], None] | None = field(default=None, repr=False)  # an Event into the run
     _reads: Callable[[], frozenset[Path]] | None = field(default=None, repr=False)  # files the graph reads
 
     @property
@@ -103,6 +105,11 @@ class NodeContext:
 
     def log(self, message: str) -> None:
         self._log(str(message))
+
+    def announce(self, event: Any) -> None:
+        """Put an event (``flowmc.runtime.events.Event``) into the run: structures announce iterations."""
+        if self._announce is not None:
+            self._announce(event)
 
     def child_runtime(self) -> Any:
         """A runtime owned by the running runtime for this node (sub-graphs keep their cache there)."""

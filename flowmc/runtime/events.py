@@ -8,18 +8,25 @@ from typing import Callable, Literal
 
 __all__ = ["EVENT_KINDS", "Event", "Listener", "EventBus"]
 
-EventKind = Literal["queued", "running", "done", "cached", "failed", "skipped", "log"]
-EVENT_KINDS: tuple[str, ...] = ("queued", "running", "done", "cached", "failed", "skipped", "log")
+EventKind = Literal["queued", "running", "done", "cached", "failed", "skipped", "log", "ready", "stale", "waiting",
+                    "iteration"]
+EVENT_KINDS: tuple[str, ...] = ("queued", "running", "done", "cached", "failed", "skipped", "log", "ready", "stale",
+                                "waiting", "iteration")
 
 
 @dataclass(frozen=True, slots=True)
 class Event:
-    """``duration`` (s) on done/failed; ``message`` on failed/skipped (why) and log."""
+    """``duration`` (s) on done/failed/ready/stale; ``message`` on failed/skipped/waiting (why), log,
+    ready/stale (what the prepared job is), and iteration
+    ("iteration 3 of 5": a loop starts its third pass; ``iteration`` is ``(3, 5)``, or ``(3, None)``
+    for a While loop, whose count is known only at its end). An iteration of a loop inside a loop's
+    body is announced too, its node id the path ``outer/inner``."""
 
     kind: EventKind
     node_id: str
     duration: float | None = None
     message: str | None = None
+    iteration: tuple[int, int | None] | None = None
 
 
 Listener = Callable[[Event], None]

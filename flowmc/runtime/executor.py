@@ -2,10 +2,14 @@
 
 A failing node (FlowmcError or any exception) is reported by message; its downstream
 nodes are skipped; independent branches still run. Nothing here prints.
+
+Device nodes run in two phases (``runtime.start``): a run prepares their jobs and never moves
+anything; ``Runtime.start`` (or ``run(..., start=...)``) is the explicit Start that does.
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
 import threading
 import time
@@ -21,10 +25,11 @@ from flowmc.errors import FlowmcError, GraphError, printable
 from flowmc.fileio import fingerprint
 from flowmc.graph import Graph, Issue, load
 from flowmc.registry import Registry
-from flowmc.runtime.cache import CacheEntry, NodeCache, signature
+from flowmc.runtime.cache import CacheEntry, IterationCache, NodeCache, signature
 from flowmc.runtime.context import NodeContext, Site, files_read, resolve_inside
 from flowmc.runtime.events import Event, EventBus, Listener
 from flowmc.runtime.schedule import Plan, make_plan
+from flowmc.runtime.start import PREPARED, Start, job_digest
 from flowmc.runtime.validate import BoundNode, value_matches
 
 __all__ = ["Runtime", "RunResult", "NodeResult", "summarize", "value_matches"]
@@ -34,7 +39,9 @@ _MAX_PLANS = 16
 
 @dataclass
 class NodeResult:
-    """``status``: done (ran), cached (reused), failed, skipped (an upstream node failed)."""
+    """``status``: done (ran), cached (reused), failed, skipped (an upstream node failed); for device
+    nodes before Start: ready (``job`` prepared), stale (prepared, and not the job last started for this
+    node); waiting (needs what a device node makes: it runs at Start)."""
 
     node_id: str
     status: str
@@ -42,6 +49,7 @@ class NodeResult:
     outputs: dict[str, Any] = field(default_factory=dict)
     error: str | None = None
     logs: list[str] = field(default_factory=list)
+    job: Any = None
 
 
 @dataclass
@@ -50,10 +58,30 @@ class RunResult:
     outputs: dict[str, Any]  # the graph's interface outputs (those produced)
     events: list[Event]
     order: list[str]
+    run: Any = field(default=None, repr=False, compare=False)  # the run, to carry on at Start
 
     @property
     def ok(self) -> bool:
-        return all(r.status in ("done", "cached") for r in self.nodes.values())
+        return all(r.status in ("done", "cached", *PREPARED) for r in self.nodes.values())
+
+    @property
+    def jobs(self) -> dict[str, Any]:
+        """Prepared jobs by node id (ready or stale device nodes): what Start would run."""
+        return {n: self.nodes[n].job for n in self.order if self.nodes[n].status in ("ready", "stale")}
+
+    @property
+    def started(self) -> bool:
+        return self.run is not None and self.run.start is not None
+
+    def digest(self) -> str:
+        """The jobs as they were prepared (a sub-graph's prepared run is its node's job)."""
+        h = hashlib.blake2b(digest_size=16)
+        for node_id, job in (self.run.prepared if self.run is not None else self.jobs).items():
+            h.update(f"{node_id}={job_digest(job)};".encode())
+        return h.hexdigest()
+
+    def summary_of_jobs(self) -> dict[str, Any]:
+        return {n: summarize(job) for n, job in self.jobs.items()}
 
     @property
     def errors(self) -> list[str]:
@@ -81,6 +109,7 @@ class RunResult:
                     "duration_s": round(r.duration, 6),
                     **({"error": r.error} if r.error else {}),
                     **({"logs": r.logs} if r.logs else {}),
+                    **({"job": summarize(r.job)} if r.job is not None and r.status in ("ready", "stale") else {}),
                     "outputs": {k: summarize(v) for k, v in r.outputs.items()},
                 }
                 for n, r in ((n, self.nodes[n]) for n in self.order)
@@ -118,6 +147,9 @@ class Runtime:
         self.cache = NodeCache()
         self._plans: dict[tuple, Plan] = {}
         self._children: dict[str, Runtime] = {}
+        self._started: dict[str, str] = {}  # node id -> digest of the job last started for it
+        self.iterations = IterationCache()  # a structure's child runtime: its body's runs by content
+        self.last_result: RunResult | None = None  # a sub-graph's child runtime keeps its inner run (views, probes)
 
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Call ``listener(event)`` for every event of every run; returns an unsubscribe function."""
@@ -126,6 +158,7 @@ class Runtime:
     def clear_cache(self) -> None:
         with self._run_lock:
             self.cache.clear()
+            self.iterations.clear()
             self._children.clear()
 
     def child(self, key: str) -> "Runtime":
@@ -160,9 +193,11 @@ class Runtime:
     # ------------------------------------------------------------ running
 
     def run(self, graph: Graph | Plan | str | os.PathLike, inputs: dict[str, Any] | None = None, *,
-            base_dir: str | os.PathLike | None = None) -> RunResult:
-        """Run the whole graph. Raises GraphError (``.issues``) when it is invalid or an input is wrong;
-        node failures are reported in the result (``result.ok`` is False), not raised."""
+            base_dir: str | os.PathLike | None = None, start: Start | bool | None = None) -> RunResult:
+        """Run the whole graph; device nodes only prepare their jobs (nothing moves) unless ``start`` is
+        given (True or a ``Start``): then this is the explicit Start as well. Raises GraphError
+        (``.issues``) when the graph is invalid or an input is wrong; node failures are reported in the
+        result (``result.ok`` is False), not raised."""
         if isinstance(graph, (str, os.PathLike)):
             graph = load(graph)
         with self._run_lock:
@@ -173,7 +208,21 @@ class Runtime:
             fed, issues = _interface_values(plan, inputs or {})
             if issues:
                 raise GraphError(_count(issues, "problem") + " with the inputs", where=where, issues=issues)
-            return _Run(self, plan, fed).execute()
+            prepared = self.last_result = _Run(self, plan, fed).execute()
+        return self.start(prepared, start) if start else prepared
+
+    def start(self, prepared: RunResult, start: Start | bool = True) -> RunResult:
+        """The explicit Start: hand each prepared job (in graph order) to its node's ``start``, then run
+        the nodes that waited for them. A failed or stopped job skips what depends on it, and
+        ``start.stop()`` keeps every job not yet started from starting. A prepared run starts once."""
+        run = prepared.run
+        if run is None or run.runtime is not self:
+            raise GraphError("Start takes a run prepared by this runtime", where=None)
+        if run.start is not None:
+            raise GraphError("this run has been started already; run the graph again to prepare it anew",
+                             where=run.plan.graph.where)
+        self.last_result = run.begin(start if isinstance(start, Start) else Start())
+        return self.last_result
 
 
 def _count(items: list, noun: str) -> str:
@@ -222,9 +271,13 @@ class _Run:
         self.events: list[Event] = []
         self.blocked: dict[str, str] = {}
         self._reads: frozenset[Path] | None = None
+        self.start: Start | None = None  # set by begin(): the explicit Start this run carries on with
+        self.prepared: dict[str, Any] = {}  # the jobs as the run prepared them
 
     def emit(self, kind: str, node_id: str, duration: float | None = None, message: str | None = None) -> None:
-        event = Event(kind, node_id, duration, message)  # type: ignore[arg-type]
+        self.announce(Event(kind, node_id, duration, message))  # type: ignore[arg-type]
+
+    def announce(self, event: Event) -> None:
         self.events.append(event)
         self.runtime.events.emit(event)
 
@@ -239,13 +292,45 @@ class _Run:
             self.emit("queued", node_id)
         for node_id in order:
             if node_id in self.blocked:
-                reason = f"skipped: upstream node {self.blocked[node_id]!r} failed"
-                self.results[node_id] = NodeResult(node_id, "skipped", error=reason)
-                self.emit("skipped", node_id, message=reason)
+                self.skip(node_id)
             else:
                 self.step(self.plan.nodes[node_id])
+        self.prepared = {n: r.job for n, r in self.results.items() if r.status in ("ready", "stale")}
+        return self.result()
+
+    def result(self) -> RunResult:
         outputs = {name: self.values[src][0] for name, (_item, src) in self.plan.iface_outputs.items() if src in self.values}
-        return RunResult(self.results, outputs, self.events, order)
+        return RunResult(self.results, outputs, self.events, self.plan.order, self)
+
+    def skip(self, node_id: str) -> None:
+        reason = f"skipped: upstream node {self.blocked[node_id]!r} failed"
+        self.results[node_id] = NodeResult(node_id, "skipped", error=reason)
+        self.emit("skipped", node_id, message=reason)
+
+    def begin(self, start: Start) -> RunResult:
+        """Start: the ready jobs in order (no run lock while a machine moves), then what waited for them."""
+        self.start = start
+        for node_id in self.plan.order:
+            status = self.results[node_id].status
+            if node_id in self.blocked and status in (*PREPARED,):
+                self.skip(node_id)
+            elif status in ("ready", "stale"):
+                self.go(self.plan.nodes[node_id])
+            elif status == "waiting":
+                with self.runtime._run_lock:
+                    self.step(self.plan.nodes[node_id])
+        return self.result()
+
+    def waits_for(self, node: BoundNode) -> str | None:
+        """The device node whose outputs this node needs and which has not run (None: it can go now)."""
+        for name, (src, _port) in node.sources.items():
+            upstream = self.results.get(src)
+            if upstream is None or upstream.status not in PREPARED:
+                continue
+            if node.moves and name in node.cls.start_inputs and upstream.status != "waiting":
+                continue  # an earlier device's log: only Start needs it
+            return src
+        return None
 
     def gather(self, node: BoundNode) -> tuple[dict[str, Any], list[tuple[str, str]]]:
         """Values arriving on the node's inputs (wired or fed by the interface) and their digests."""
@@ -259,6 +344,17 @@ class _Run:
         return wired, digests
 
     def step(self, node: BoundNode) -> None:
+        upstream = self.waits_for(node)
+        if upstream is not None:
+            message = f"waits for Start: node {upstream!r} has not run"
+            self.results[node.id] = NodeResult(node.id, "waiting", error=None, logs=[message])
+            self.emit("waiting", node.id, message=message)
+            return
+        if node.moves:
+            self.prepare(node)
+            if self.start is not None and self.results[node.id].status in ("ready", "stale"):
+                self.go(node)
+            return
         wired, digests = self.gather(node)
         sig = signature(node.static, digests + _file_stamps(node, wired, self.plan.site))
         if node.pure:
@@ -275,12 +371,7 @@ class _Run:
             outputs = self.invoke(node, wired, result)
             out_digests = _digest_outputs(node, outputs)
         except Exception as exc:  # every failure becomes a message, never a traceback
-            result.status, result.duration = "failed", time.perf_counter() - start
-            result.error = _failure_message(node.id, exc)
-            self.runtime.cache.drop(node.id)
-            for down in sorted(self.plan.downstream(node.id)):
-                self.blocked.setdefault(down, node.id)
-            self.emit("failed", node.id, result.duration, result.error)
+            self.fail(node, result, exc, start)
             return
         result.status, result.duration, result.outputs = "done", time.perf_counter() - start, outputs
         self.publish(node, outputs, out_digests)
@@ -288,11 +379,72 @@ class _Run:
             self.runtime.cache.put(node.id, CacheEntry(sig, outputs, out_digests))
         self.emit("done", node.id, result.duration)
 
+    def fail(self, node: BoundNode, result: NodeResult, exc: BaseException, started: float) -> None:
+        result.status, result.duration = "failed", time.perf_counter() - started
+        result.error = _failure_message(node.id, exc)
+        self.runtime.cache.drop(node.id)
+        for down in sorted(self.plan.downstream(node.id)):
+            self.blocked.setdefault(down, node.id)
+        self.emit("failed", node.id, result.duration, result.error)
+
+    def prepare(self, node: BoundNode) -> None:
+        """A device node's job, cached on the inputs it is prepared from (not the Start-only ones)."""
+        wired, digests = self.gather(node)
+        sig = signature(node.static, [(n, d) for n, d in digests if n not in node.cls.start_inputs])
+        key = node.id + "\0job"
+        result = self.results[node.id] = NodeResult(node.id, "running")
+        begun = time.perf_counter()
+        entry = self.runtime.cache.get(key, sig) if node.binding is None else None  # a sub-graph's run starts once
+        if entry is not None:
+            job = entry.outputs["job"]
+        else:
+            self.emit("running", node.id)
+            try:
+                job = self.invoke(node, wired, result, "prepare")
+            except Exception as exc:  # a job that cannot be prepared (pre-flight refused it) fails the node
+                self.fail(node, result, exc, begun)
+                return
+            self.runtime.cache.put(key, CacheEntry(sig, {"job": job}, {}))
+        last = self.runtime._started.get(node.id)
+        result.status = "stale" if last is not None and last != job_digest(job) else "ready"
+        result.job, result.duration = job, time.perf_counter() - begun
+        describe = getattr(job, "describe", None)
+        self.emit(result.status, node.id, result.duration, describe() if callable(describe) else None)
+
+    def go(self, node: BoundNode) -> None:
+        """Start one prepared job: the node's ``start`` hands it to its device and returns the outputs."""
+        result = self.results[node.id]
+        job = result.job
+        if self.start is None or self.start.stopped.is_set():
+            self.blocked.setdefault(node.id, node.id)
+            result.status, result.error = "skipped", "not started: the run was stopped"
+            for down in sorted(self.plan.downstream(node.id)):
+                self.blocked.setdefault(down, node.id)
+            self.emit("skipped", node.id, message=result.error)
+            return
+        self.runtime._started[node.id] = job_digest(job)
+        wired, _digests = self.gather(node)
+        result.status = "running"
+        self.emit("running", node.id)
+        begun = time.perf_counter()
+        try:
+            outputs = self.invoke(node, wired, result, "start", job)
+            out_digests = _digest_outputs(node, outputs)
+        except Exception as exc:  # a fault or a stop: the node fails, what depends on it is skipped
+            self.fail(node, result, exc, begun)
+            return
+        result.status, result.duration, result.outputs = "done", time.perf_counter() - begun, outputs
+        self.publish(node, outputs, out_digests)
+        self.emit("done", node.id, result.duration)
+
     def publish(self, node: BoundNode, outputs: dict[str, Any], digests: dict[str, str]) -> None:
         for name, value in outputs.items():
             self.values[(node.id, name)] = (value, digests[name])
 
-    def invoke(self, node: BoundNode, wired: dict[str, Any], result: NodeResult) -> dict[str, Any]:
+    def invoke(self, node: BoundNode, wired: dict[str, Any], result: NodeResult, phase: str = "run",
+               job: Any = None) -> Any:
+        """Call the node: ``run``, or for a device node ``prepare`` (without the Start-only inputs; returns
+        the job) or ``start`` (the job and the Start-only inputs)."""
         params = _params_with_wires(node, wired)
         kwargs = {name: wired.get(name, port.default) for name, port in node.inputs.items() if not port.param}
 
@@ -301,8 +453,14 @@ class _Run:
             self.emit("log", node.id, message=message)
 
         ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id),
-                          self.files_read)
-        outputs = node.cls().run(ctx, params, **kwargs)
+                          self.start, _announce=self.announce, _reads=self.files_read)
+        later = node.cls.start_inputs
+        if phase == "prepare":
+            return node.cls().prepare(ctx, params, **{k: v for k, v in kwargs.items() if k not in later})
+        if phase == "start":
+            outputs = node.cls().start(ctx, job, **{k: v for k, v in kwargs.items() if k in later})
+        else:
+            outputs = node.cls().run(ctx, params, **kwargs)
         _check_outputs(node, outputs)
         return outputs
 

@@ -1,17 +1,18 @@
-"""Scheduling on networkx: one Plan per graph revision (validated, ordered, ready to run).
+"""Scheduling: one Plan per graph revision (validated, ordered, ready to run).
 
-The order is ``nx.topological_generations`` with ids sorted inside each generation, so two
-runs of the same graph always visit nodes in the same order. When there is no order, each
-cycle is named with ``nx.find_cycle`` (rotated to start at its smallest id).
+The order is the graph's topological generations (what networkx's ``topological_generations``
+gives) with ids sorted inside each generation, so two runs of the same graph always visit nodes
+in the same order. The standard library's ``graphlib`` computes them: networkx takes a tenth of a
+second to import, which ``flowmc validate`` cannot spare. When there is no order, networkx names
+each cycle (``nx.find_cycle``, rotated to start at its smallest id).
 """
 
 from __future__ import annotations
 
+import graphlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-
-import networkx as nx
 
 import flowmc.budget as budget
 from flowmc.fileio import fingerprint
@@ -21,7 +22,7 @@ from flowmc.registry import Registry
 from flowmc.runtime.context import Site
 from flowmc.runtime.validate import BoundNode, check_graph
 
-__all__ = ["Plan", "make_plan", "find_cycles"]
+__all__ = ["Plan", "make_plan", "generations", "find_cycles"]
 
 
 @dataclass
@@ -33,7 +34,7 @@ class Plan:
     registry: Registry
     issues: list[Issue]
     nodes: dict[str, BoundNode]
-    digraph: nx.DiGraph
+    successors: dict[str, set[str]]  # node id -> the nodes its outputs feed
     generations: list[list[str]]
     iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]]
     iface_outputs: dict[str, tuple[Any, tuple[str, str]]]
@@ -52,24 +53,36 @@ class Plan:
     def pure(self) -> bool:
         return all(node.pure for node in self.nodes.values())
 
+    @property
+    def moves(self) -> bool:
+        """Some node drives a device: running the plan prepares jobs, only Start runs them."""
+        return any(node.moves for node in self.nodes.values())
+
     def ports(self, node_id: str) -> tuple[dict[str, In], dict[str, Out]]:
         """Inputs (data and param ports) and outputs of a node as bound in this graph."""
         node = self.nodes[node_id]
         return node.inputs, node.outputs
 
     def downstream(self, node_id: str) -> set[str]:
-        return nx.descendants(self.digraph, node_id)
+        """Every node that depends on ``node_id``, directly or through others."""
+        found: set[str] = set()
+        todo = [node_id]
+        while todo:
+            for nxt in self.successors.get(todo.pop(), ()):
+                if nxt not in found:
+                    found.add(nxt)
+                    todo.append(nxt)
+        return found
 
     def deps_unchanged(self) -> bool:
         return all(fingerprint(path) == digest for path, digest in self.deps.items())
 
 
-def find_cycles(digraph: nx.DiGraph) -> list[list[str]]:
-    """One named cycle per strongly connected knot (enough to show each loop the user drew).
+def find_cycles(edges: list[tuple[str, str]]) -> list[list[str]]:
+    """One named cycle per strongly connected knot (enough to show each loop the user drew)."""
+    import networkx as nx  # only a graph with a cycle pays for it
 
-    ``find_cycle`` runs only inside knots: on a large acyclic graph it is far slower than
-    the topological sort that already proves there is none.
-    """
+    digraph = nx.DiGraph(edges)
     cycles = []
     for component in sorted((c for c in nx.strongly_connected_components(digraph) if len(c) > 1), key=min):
         sub = digraph.subgraph(component)
@@ -81,28 +94,46 @@ def find_cycles(digraph: nx.DiGraph) -> list[list[str]]:
     return sorted(cycles, key=lambda ids: ids[0])
 
 
+def generations(node_ids: list[str], edges: list[tuple[str, str]]) -> list[list[str]] | None:
+    """Topological generations, ids sorted in each; None when there is a cycle."""
+    sorter: graphlib.TopologicalSorter[str] = graphlib.TopologicalSorter({n: () for n in node_ids})
+    for src, dst in edges:
+        sorter.add(dst, src)
+    try:
+        sorter.prepare()
+    except graphlib.CycleError:
+        return None
+    out = []
+    while sorter.is_active():
+        ready = sorted(sorter.get_ready())
+        sorter.done(*ready)
+        out.append(ready)
+    return out
+
+
 def make_plan(graph: Graph, site: Site, registry: Registry, memo: dict[Any, Any] | None = None) -> Plan:
     """Validate ``graph`` against ``registry`` and order it; graphs that nodes hold are planned the same way,
     each file once per planning pass (``memo``), so a file used many times costs no more than once."""
     memo = {} if memo is None else memo
     checked = check_graph(graph, site, registry, lambda inner, inner_site: make_plan(inner, inner_site, registry, memo),
                           memo)
-    digraph = nx.DiGraph()
-    digraph.add_nodes_from(checked.node_ids)
-    digraph.add_edges_from(sorted(set(checked.edges)))
+    edges = sorted(set(checked.edges))
+    successors: dict[str, set[str]] = {}
+    for src, dst in edges:
+        successors.setdefault(src, set()).add(dst)
     issues = checked.issues
-    try:
-        generations = [sorted(g) for g in nx.topological_generations(digraph)]
-    except nx.NetworkXUnfeasible:
-        generations = []
-        for ids in find_cycles(digraph):
+    order = generations(checked.node_ids, edges)
+    if order is None:
+        order = []
+        for ids in find_cycles(edges):
             text = " -> ".join(ids + ids[:1])
             issues.append(Issue("cycle", ("nodes", ids[0]), f"node {ids[0]!r}: cycle {text}"))
-    size = len(checked.node_ids) + sum(n.binding.size for n in checked.nodes.values() if isinstance(n.binding, Plan))
+    size = len(checked.node_ids) + sum(getattr(n.binding, "size", 0) for n in checked.nodes.values())
     limit = budget.cap("expansion")
     if size > limit:
-        issues.append(Issue("budget", (), f"the graph expands to {size:,} nodes through its sub-graphs, over the "
-                                          f"budget of {limit:,}: use a sub-graph fewer times, or raise the limit "
+        issues.append(Issue("budget", (), f"the graph expands to {size:,} nodes through its sub-graphs and "
+                                          f"structures, over the budget of {limit:,}: use a sub-graph fewer times, "
+                                          "or raise the limit "
                                           "(FLOWMC_BUDGET_EXPANSION)"))
-    return Plan(graph, site, registry, issues, checked.nodes, digraph, generations,
+    return Plan(graph, site, registry, issues, checked.nodes, successors, order,
                 checked.iface_inputs, checked.iface_outputs, checked.deps, size)

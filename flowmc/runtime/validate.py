@@ -7,7 +7,8 @@ unknown is reported once: the wires touching it are not flagged again.
 Codes: unknown-node-type, unknown-param, invalid-param, missing-input, unknown-node,
 unknown-port, broken-wire, input-wired-twice, duplicate-node-id, interface-port,
 interface-type, interface-duplicate, cycle (schedule.py), subgraph, subgraph-recursion,
-path-escape (the last three from sub-graph nodes).
+path-escape (the last three from sub-graph nodes), bodies (a node holding bodies its type cannot),
+structure (a loop's or case's bodies, from structure nodes).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from flowmc.errors import GraphError
 from flowmc.graph import Graph, Issue, Node, split_ref
 from flowmc.ports import SCALAR_PORT_TYPES, In, Out, Ports
 from flowmc.registry import NodeType, Registry, check_ports
-from flowmc.runtime.binding import BindContext, binder_of
+from flowmc.runtime.binding import BindContext, binder_of, holds_bodies
 from flowmc.runtime.cache import static_key
 from flowmc.runtime.context import Site
 
@@ -56,6 +57,7 @@ class BoundNode:
     pure: bool
     static: bytes = b""
     binding: Any = None  # types that hold a graph (runtime.binding): the inner plan
+    moves: bool = False  # a device node, or a sub-graph holding one: two phases (runtime.start)
     sources: dict[str, tuple[str, str]] = field(default_factory=dict)  # input -> (node, output)
     fed: dict[str, str] = field(default_factory=dict)  # input -> interface input name
 
@@ -82,7 +84,7 @@ def check_graph(graph: Graph, site: Site, registry: Registry, plan: Callable[[Gr
     bound: dict[str, BoundNode] = {}
     memo = {} if memo is None else memo
     for node in nodes.values():
-        b = _bind_node(node, site, registry, plan, targets.get(node.id, set()), issues, deps, memo)
+        b = _bind_node(node, graph, site, registry, plan, targets.get(node.id, set()), issues, deps, memo)
         if b is not None:
             bound[node.id] = b
     edges, fed_by = _check_wires(graph, nodes, bound, issues)
@@ -117,7 +119,7 @@ def _targets_by_node(graph: Graph) -> dict[str, set[str]]:
 
 # ---------------------------------------------------------------- nodes
 
-def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any],
+def _bind_node(node: Node, graph: Graph, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any],
                fed_ports: set[str], issues: list[Issue], deps: dict, memo: dict) -> BoundNode | None:
     try:
         cls = registry.lookup(node.type, site.graph_dir)
@@ -128,12 +130,17 @@ def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph
     params, param_issues = _validate_params(node, cls, fed_ports)
     issues.extend(param_issues)
     binder = binder_of(cls)
+    if node.bodies and not holds_bodies(cls):
+        issues.append(Issue("bodies", ("nodes", node.id, "bodies"),
+                            f"node {node.id!r}: a {node.type} holds no bodies (only loops and case structures do)"))
+        return None
     if (binder is not None or cls.dynamic_ports()) and params is None:
         return None  # ports depend on params we could not read
     binding, pure, extra = None, cls.pure, ""
     if binder is not None:
+        bodies = {name: body.as_graph(graph) for name, body in node.bodies.items()}
         try:
-            bound = binder.bind_graph(params, BindContext(site, node.id, plan, memo))
+            bound = binder.bind_graph(params, BindContext(site, node.id, plan, memo, bodies))
         except GraphError as exc:
             issues.extend(exc.issues or [Issue("subgraph", ("nodes", node.id, "params"), f"node {node.id!r}: {exc}")])
             return None
@@ -152,7 +159,8 @@ def _bind_node(node: Node, site: Site, registry: Registry, plan: Callable[[Graph
     outputs = {p.name: p for p in ports.outputs}
     params_json = params.model_dump_json() if params is not None else json.dumps(node.params, sort_keys=True, default=str)
     static = static_key(cls.type_id, cls.version, params_json, extra)
-    return BoundNode(node.id, cls, node.params, params, inputs, outputs, pure, static, binding)
+    moves = bool(cls.moves or (binding is not None and getattr(binding, "moves", False)))
+    return BoundNode(node.id, cls, node.params, params, inputs, outputs, pure, static, binding, moves=moves)
 
 
 def _validate_params(node: Node, cls: type[NodeType], fed_ports: set[str]) -> tuple[BaseModel | None, list[Issue]]:

@@ -1,7 +1,8 @@
-"""The editor: ``flowmc serve [FILE]`` starts it. One viser server holds the node canvas (the scene)
-and the side panel (Run, edit buttons, and tabs for the inspector, the palette, files, problems,
-the front panel, the device and sweeps); the 3D toolpath view runs on a second server shown in a docked
-panel (``extensions``).
+"""The editor: ``flowmc serve [FILE]`` starts it. One viser server holds the node canvas (the scene),
+the palette and examples docked on the left, and the side panel on the right (Run, edit and canvas
+buttons, and tabs for the selection and its params, problems, files, the front panel, the device
+and sweeps); the 3D toolpath view runs on a second server shown in a panel docked beside the palette,
+collapsed until it has something to show (``extensions``). The canvas gets the rest of the page.
 
 The editor edits and runs graphs only through the core's public API, by way of its
 ``EditorSession`` (document, runtime, run queue, results, device session). Panels get the editor as
@@ -11,8 +12,11 @@ thread pool.
 
 from __future__ import annotations
 
+import contextlib
+import json
 import socket
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -21,13 +25,17 @@ import viser
 
 from flowmc.errors import FlowmcError
 from flowmc.graph import load
-from flowmc.ui import viser_internals
+from flowmc.ui import arrange, camera, layout, viser_internals
+from flowmc.ui.actions import Actions
 from flowmc.ui.canvas import Canvas
+from flowmc.ui.examples import ExamplesPanel
 from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
 from flowmc.ui.guard import Guard, is_loopback
 from flowmc.ui.inspector import Inspector
-from flowmc.ui.panels import PalettePanel, ProblemsPanel, free_spot
+from flowmc.ui.interface_panel import InterfacePanel
+from flowmc.ui.minimap import Minimap
+from flowmc.ui.panels import PalettePanel, ProblemsPanel
 from flowmc.ui.selection_panel import SelectionPanel
 from flowmc.ui.session import DeviceAccess, EditorSession, JobAccess, RunRefused, RunRequest
 from flowmc.ui.sweep_panel import SweepPanel
@@ -35,6 +43,14 @@ from flowmc.ui.text import escape_md, md, plain
 
 __all__ = ["Editor", "serve_main"]
 
+MAX_TOASTS = 3
+SETTLE_DELAY_S = 0.06
+COMMANDS = (("Undo", "Z", "cmd/ctrl", "Undo"), ("Redo", "Z", "cmd/ctrl+shift", "Redo"),
+            ("Delete selection", "delete", None, "Delete"), ("Fit to view", "F", None, "Fit"),
+            ("Save", "S", "cmd/ctrl", "Save"), ("Run", "enter", "cmd/ctrl", "Run"),
+            ("Copy", "C", "cmd/ctrl", "Copy"), ("Cut", "X", "cmd/ctrl", "Cut"), ("Duplicate", "D", "cmd/ctrl", "Duplicate"),
+            ("Select all", "A", "cmd/ctrl", "Select all"), ("Auto-layout", "L", "shift", "Layout"),
+            ("Add a comment", "C", "shift", "Comment"), ("Add a label", "T", "shift", "Label"))
 NETWORK_WARNING = ("warning: the editor is listening on {host}: anyone who can reach this machine on the network "
                    "can open it, edit graphs and run the machine (motion, outputs, spindle). Use only on a trusted network.")
 
@@ -56,12 +72,17 @@ class Editor:
         self.messages: list[tuple[str, str]] = []
         self.pending_modal: Any = None
         self._titles: dict[int, str] = {}
+        self._toasts: dict[int, list[Any]] = {}
+        self._settles = 0
+        self._page_handlers: dict[str, Callable[[Any, Any], object]] = {}
         self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
-        self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="large")
+        self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="medium")
         self.server.gui.main_panel.dock_right()
         self.canvas = Canvas(self.server, self.state, self.notify, self.lock, status=self.session.status)
+        self.actions = Actions(self)
         self._build_gui()
+        self.minimap = Minimap(self)
         self.extensions = Extensions(self) if extensions else None
         self.sweep_panel: SweepPanel | None = None
         if extensions:
@@ -72,6 +93,7 @@ class Editor:
         self.state.subscribe(self._on_state)
         self.server.on_client_connect(self._on_connect)
         self.canvas.sync()
+        self.canvas.fit()  # where the first page starts
         self._refresh_side()
 
     @property
@@ -87,33 +109,66 @@ class Editor:
     # ------------------------------------------------------------------ layout
     def _build_gui(self) -> None:
         gui = self.server.gui
+        self.channel = gui.add_text(viser_internals.CHANNEL_LABEL, "")  # the page script hides its row
+        self.channel.on_update(self._page_event)
         self.header = gui.add_markdown("")
         self.run_button = gui.add_button("Run", color="green", icon=viser.Icon.PLAYER_PLAY, hint="Validate, then run the graph")
-        self.edit_ops = gui.add_button_group("Edit", ("Undo", "Redo", "Fit", "Delete"))
+        self.edit_ops = gui.add_button_group("Edit", ("Undo", "Redo", "Delete"))
+        self.clip_ops = gui.add_button_group("Clipboard", ("Copy", "Cut", "Paste"))
+        self.canvas_ops = gui.add_button_group("Canvas", ("Fit", "Layout"))
+        self.note_ops = gui.add_button_group("Add", ("Comment", "Label"))
         self.status_line = gui.add_markdown("")
         group = gui.add_tab_group()
         self.tabs = {key: group.add_tab(label) for key, label in
-                     (("node", "Node"), ("add", "Add"), ("files", "Files"), ("problems", "Problems"))}
+                     (("node", "Node"), ("problems", "Problems"), ("files", "Files"))}
         with self.tabs["node"]:
             self.selection = SelectionPanel(self)
+            self.interface = InterfacePanel(self)
         self.inspector = Inspector(gui, self.tabs["node"], self.state, self.lock, on_structure=self.canvas.sync)
-        with self.tabs["add"]:
-            self.palette = PalettePanel(self)
         with self.tabs["files"]:
             self.files = FilesPanel(self)
+            self.dark = gui.add_checkbox("Dark theme", False, hint="Dark page and canvas")
         with self.tabs["problems"]:
             self.problems = ProblemsPanel(self)
         self.tab_group = group
+        self.palette_panel = gui.add_panel()
+        self.palette = PalettePanel(self, self.palette_panel.add_tab("Nodes", viser.Icon.LAYOUT_GRID_ADD))
+        with self.palette_panel.add_tab("Examples", viser.Icon.BOOK):
+            self.examples = ExamplesPanel(self)
+        self.palette_panel.dock_above(gui.main_panel)  # the right column: palette on top, the side panel below
         self.run_button.on_click(lambda _e: self.run())
-        self.edit_ops.on_click(lambda e: self.edit(e.target.value))
-        for label, key, mod, action in (("Undo", "Z", "cmd/ctrl", "Undo"), ("Redo", "Z", "cmd/ctrl+shift", "Redo"),
-                                        ("Delete selection", "delete", None, "Delete"), ("Fit to view", "F", None, "Fit"),
-                                        ("Save", "S", "cmd/ctrl", "Save"), ("Run", "enter", "cmd/ctrl", "Run")):
+        for ops in (self.edit_ops, self.clip_ops, self.canvas_ops, self.note_ops):
+            ops.on_click(lambda e: self.edit(e.target.value))
+        self.dark.on_update(lambda _e: self.set_theme("dark" if self.dark.value else "light"))
+        for label, key, mod, action in COMMANDS:
             command = gui.add_command(label, hotkey=key, modifier=mod)
             command.on_trigger(lambda _e, a=action: self.edit(a))
+        self.on_page_event("paste", lambda _client, data: self.actions.paste_text(data if isinstance(data, str) else None))
+        self.on_page_event("palette-drop", self._palette_drop)
+        self.on_page_event("grid", lambda _client, data: self.inspector.grid_event(data.get("grid"), data)
+                           if isinstance(data, dict) else None)
+
+    def set_theme(self, name: str) -> None:
+        """Light or dark: the page (viser's theme) and the canvas."""
+        self.gui.configure_theme(show_share_button=False, show_logo=False, control_width="medium", dark_mode=name == "dark")
+        with self.lock:
+            self.canvas.set_theme(name)
+
+    def _palette_drop(self, client: Any, data: Any) -> None:
+        """A palette entry dragged onto the canvas: ``data`` is its label and where it was let go (0..1 of the view)."""
+        try:
+            label, u, v = data["label"], float(data["u"]), float(data["v"])
+        except (TypeError, KeyError, ValueError):
+            return
+        if not (0.0 <= u <= 1.0 and 0.0 <= v <= 1.0):
+            return
+        at = layout.to_canvas(*camera.world_at(client.camera, u, v))
+        self.palette.dropped(label, at)
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
+        viser_internals.install_page(client, self.channel)
         self.canvas.setup_client(client)
+        client.camera.on_update(lambda _cam: self.minimap.refresh(force=False))
         self._titles.pop(client.client_id, None)
         self._refresh_title([client])
         clients = list(self.server.get_clients().values())
@@ -123,6 +178,21 @@ class Editor:
                                         "they edit the same graph, and share one undo history"),
                                         color="yellow", auto_close_seconds=10.0)
 
+    def on_page_event(self, kind: str, handler: Callable[[Any, Any], object]) -> None:
+        """Call ``handler(client, data)`` for page events of ``kind`` (``window.flowmc.send(kind, data)``)."""
+        self._page_handlers[kind] = handler
+
+    def _page_event(self, event: Any) -> None:
+        """One event from the page script. The page is not trusted: malformed events are dropped."""
+        try:
+            message = json.loads(event.target.value)
+            kind, data = message["kind"], message.get("data")
+        except (ValueError, TypeError, KeyError):
+            return
+        handler = self._page_handlers.get(kind) if isinstance(kind, str) else None
+        if handler is not None:
+            handler(event.client, data)
+
     # ------------------------------------------------------------------ messages and refreshes
     def notify(self, kind: str, text: str, client: viser.ClientHandle | None = None) -> None:
         """Tell the user: the line under the Run button, and a notification in the browser."""
@@ -131,14 +201,28 @@ class Editor:
         self.status_line.content = ("⚠ " if kind == "error" else "") + escape_md(text)
         title = "Problem" if kind == "error" else "flowmc"
         for target in [client] if client is not None else list(self.server.get_clients().values()):
-            target.add_notification(title, plain(text), color="red" if kind == "error" else "blue",
-                                    auto_close_seconds=8.0 if kind == "error" else 3.0)
+            shown = self._toasts.setdefault(target.client_id, [])
+            while len(shown) >= MAX_TOASTS:  # the oldest goes: a burst of messages never stacks up
+                with contextlib.suppress(Exception):
+                    shown.pop(0).remove()
+            shown.append(target.add_notification(title, plain(text), color="red" if kind == "error" else "blue",
+                                                  auto_close_seconds=8.0 if kind == "error" else 3.0))
 
     def _on_state(self, kind: str) -> None:
         with self.lock:
+            if kind == "selection":  # the fast path: say what is selected, recolour, then build its form
+                with self.server.atomic():
+                    self.selection.show()
+                self.server.flush()
+                self.canvas.sync_selection()
+                self._settle_soon()
+                if self.extensions is not None:
+                    self.extensions.selection_changed()
+                return
             if kind in ("graph", "document"):
                 self.canvas.status.clear()
             self.canvas.sync()
+            self.minimap.refresh()
             if kind == "move":
                 self._refresh_title()
                 return
@@ -150,6 +234,18 @@ class Editor:
         if self.extensions is not None and kind in ("graph", "document"):
             self.extensions.graph_changed(kind)
 
+    def _settle_soon(self) -> None:
+        """The form of a new selection, a moment after its summary and frame went out, so that the page draws
+        those first (a browser page shows them about 100 ms sooner); at once when no page is open."""
+        self._settles += 1
+        if not self.server.get_clients():
+            self.settle()
+            return
+        ticket = self._settles
+        timer = threading.Timer(SETTLE_DELAY_S, lambda: self.settle() if ticket == self._settles else None)
+        timer.daemon = True
+        timer.start()
+
     def settle(self) -> None:
         """Bring the inspector and the side panel up to date with the document."""
         with self.lock:
@@ -157,9 +253,11 @@ class Editor:
                 if not self.inspector.editing:
                     self.inspector.show()
                 self._refresh_side()
+            self.server.flush()
 
     def _refresh_side(self) -> None:
         self.selection.show()
+        self.interface.show()
         self.problems.show(self.state.issues(), self.session.run_errors())
         self._refresh_title()
 
@@ -183,19 +281,24 @@ class Editor:
 
     # ------------------------------------------------------------------ actions
     def edit(self, action: str) -> None:
+        """An edit command by name (the buttons' labels and the hotkeys' actions)."""
+        simple: dict[str, Callable[[], object]] = {
+            "Fit": self.canvas.fit, "Save": self.files.save, "Run": self.run, "Copy": self.actions.copy,
+            "Cut": lambda: self.actions.copy(cut=True), "Paste": lambda: self.actions.paste_text(None),
+            "Duplicate": self.actions.duplicate, "Select all": self.actions.select_all,
+            "Layout": self.actions.auto_layout, "Comment": lambda: self.actions.add_note("comment"),
+            "Label": lambda: self.actions.add_note("label")}
         with self.lock:
             if action == "Undo" and not self.state.undo():
                 self.notify("info", "nothing to undo")
             elif action == "Redo" and not self.state.redo():
                 self.notify("info", "nothing to redo")
-            elif action == "Fit":
-                self.canvas.fit()
             elif action == "Delete" and not self.state.delete_selection():
                 self.notify("info", "nothing selected to delete")
-            elif action == "Save":
-                self.files.save()
-            elif action == "Run":
-                self.run()
+            elif action in simple:
+                simple[action]()
+            elif action.startswith("Align:"):
+                self.actions.align(action.partition(":")[2])
 
     def select_node(self, node_id: str) -> None:
         with self.lock:
@@ -203,10 +306,15 @@ class Editor:
                 self.state.select(nodes=[node_id])
 
     def add_node(self, type_id: str, params: dict[str, Any], at: tuple[float, float] | None = None) -> str:
-        """Add a node at the free spot nearest ``at`` (canvas pixels; default the middle of the view), selected."""
+        """Add a node with its centre at the free spot nearest ``at`` (canvas pixels; default the middle of the
+        view), overlapping no node, terminal or note, and select it."""
         with self.lock:
-            x, y = free_spot(self.canvas.boxes, at if at is not None else self.canvas.view_centre())
-            node_id = self.state.add_node(type_id, (x, y), params)
+            centre = at if at is not None else self.canvas.view_centre()
+            node_id = self.state.add_node(type_id, centre, params)
+            box = self.canvas.by_id.get(node_id)
+            size = (box.w / layout.SCALE, box.h / layout.SCALE) if box is not None else (200.0, 120.0)
+            taken = [r for k, r in self.actions.rects().items() if k != node_id]
+            self.state.move_nodes({node_id: arrange.free_spot(taken, size, centre)}, record=False)
             self.state.select(nodes=[node_id])
             return node_id
 
@@ -228,9 +336,9 @@ class Editor:
         keep.on_click(lambda _e: modal.close())
         return modal
 
-    def download(self, name: str, data: bytes, client: Any = None) -> None:
+    def download(self, name: str, text: str, client: Any = None) -> None:
         for target in [client] if client is not None else list(self.server.get_clients().values()):
-            target.send_file_download(name, data)
+            viser_internals.download(target, name, text)
 
     def run(self, inputs: dict[str, Any] | None = None, source: str = "run") -> RunRequest | None:
         """Queue a run through the session (the one way to run); None, with the problems shown, when the
@@ -289,7 +397,7 @@ class Editor:
         except FlowmcError as exc:
             self.notify("error", f"G-code export: {exc}", client)
             return None
-        self.download(export.target.name, text.encode("utf-8"), client)
+        self.download(export.target.name, text, client)
         self.notify("info", f"wrote {export.target.name}", client)
         return export.target
 

@@ -1,43 +1,66 @@
-"""What the canvas shows, as arrays and strings: batched quads, wire segments, label texts.
+"""What the canvas shows, as arrays and strings: colours (light and dark), batched quads, wire
+segments and the texts of titles, port labels, table previews, badges and status lines.
 
 Kept apart from the viser calls so it stays plain data: one place decides colours and sizes.
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from flowmc.ui.layout import SCALE, TITLE_H, NodeBox, PortSpot
-from flowmc.ui.ports import port_color
+from flowmc.ui.layout import COMMENT_BAR, SCALE, TITLE_H, NodeBox, NoteBox
+from flowmc.ui.ports import PortInfo, port_color
 
-__all__ = ["AMBIENT", "mesh_rgb", "STATUS_COLORS", "QUAD_VERTICES", "QUAD_FACES", "Quads", "node_quads", "port_quads",
-           "wire_segments",
-           "port_label", "status_text", "shorten", "issue_node", "node_problems"]
+__all__ = ["AMBIENT", "Theme", "LIGHT", "DARK", "THEMES", "mesh_rgb", "QUAD_VERTICES", "QUAD_FACES", "Quads",
+           "node_quads", "port_quads", "note_quads", "wire_segments", "port_label", "status_text", "shorten",
+           "issue_node", "node_problems", "rows_preview", "STATUS_COLORS", "FRAME_SELECTED"]
 
-STATUS_COLORS: dict[str | None, tuple[int, int, int]] = {
-    None: (250, 250, 250),
-    "queued": (222, 228, 238),
-    "running": (255, 213, 100),
-    "done": (150, 220, 160),
-    "cached": (175, 222, 230),
-    "failed": (240, 120, 120),
-    "skipped": (205, 205, 205),
-}
-FRAME = (95, 95, 100)
-FRAME_SELECTED = (255, 140, 0)
-FRAME_PROBLEM = (215, 40, 40)
-TITLE_BAR = (228, 232, 240)
-WIRE_SELECTED = (255, 140, 0)
-WIRE_PROBLEM = (215, 40, 40)
+
+@dataclass(frozen=True)
+class Theme:
+    name: str
+    grid: tuple[int, int, int]
+    status: dict[str | None, tuple[int, int, int]]
+    frame: tuple[int, int, int]
+    selected: tuple[int, int, int]
+    problem: tuple[int, int, int]
+    title_bar: tuple[int, int, int]
+    terminal: tuple[int, int, int]
+    comment: tuple[int, int, int]
+    comment_bar: tuple[int, int, int]
+    label_back: tuple[int, int, int]
+    dim_port: tuple[int, int, int]
+
+
+LIGHT = Theme(
+    "light", grid=(228, 231, 236),
+    status={None: (252, 252, 252), "queued": (222, 228, 238), "running": (255, 213, 100), "done": (170, 226, 178),
+            "cached": (186, 226, 234), "failed": (244, 140, 140), "skipped": (210, 210, 210),
+            "ready": (150, 190, 250), "stale": (250, 195, 95), "waiting": (222, 214, 242)},
+    frame=(120, 124, 132), selected=(255, 140, 0), problem=(215, 40, 40), title_bar=(226, 231, 240),
+    terminal=(214, 226, 246), comment=(255, 244, 196), comment_bar=(248, 226, 140), label_back=(236, 236, 236),
+    dim_port=(200, 200, 200))
+DARK = Theme(
+    "dark", grid=(52, 56, 64),
+    status={None: (58, 62, 71), "queued": (62, 70, 88), "running": (150, 118, 30), "done": (46, 104, 62),
+            "cached": (40, 92, 104), "failed": (136, 44, 44), "skipped": (70, 70, 74),
+            "ready": (44, 80, 140), "stale": (140, 96, 30), "waiting": (80, 70, 110)},
+    frame=(100, 106, 118), selected=(255, 150, 20), problem=(240, 70, 70), title_bar=(78, 84, 98),
+    terminal=(48, 70, 110), comment=(70, 64, 40), comment_bar=(112, 100, 50), label_back=(60, 60, 66),
+    dim_port=(84, 86, 92))
+THEMES = {"light": LIGHT, "dark": DARK}
+STATUS_COLORS = LIGHT.status
+FRAME_SELECTED = LIGHT.selected
+WIRE_PX = 3.0  # wire thickness on screen; a selected wire is thicker
+WIRE_SELECTED_PX = 5.0
 
 # A unit quad hanging down-right from its position (top-left corner), facing +z.
 QUAD_VERTICES = np.array([[0, 0, 0], [1, 0, 0], [1, -1, 0], [0, -1, 0]], dtype=np.float32)
 QUAD_FACES = np.array([[0, 2, 1], [0, 3, 2]], dtype=np.uint32)
-Z_WIRES, Z_FRAME, Z_BODY, Z_TITLE, Z_PORTS, Z_LABELS = -0.04, -0.02, 0.0, 0.01, 0.02, 0.05
+Z_GRID, Z_COMMENT, Z_WIRES, Z_FRAME, Z_BODY, Z_TITLE, Z_PORTS, Z_LABELS = -0.08, -0.06, -0.04, -0.02, 0.0, 0.01, 0.02, 0.05
 
 
 @dataclass
@@ -71,46 +94,73 @@ def _quads(rects: list[tuple[float, float, float, float]], z: float, colors: lis
     return Quads(positions, scales, mesh_rgb(np.asarray(colors, dtype=np.uint8).reshape(n, 3)))
 
 
-def node_quads(boxes: list[NodeBox], status: dict[str, Any], selected: set[str],
-               problems: dict[str, list[str]]) -> dict[str, Quads]:
-    """Frames (selection/problem colour), bodies (run status colour) and title bars, one per box."""
-    frames, frame_colors, bodies, body_colors, bars = [], [], [], [], []
+def node_quads(boxes: list[NodeBox], status: dict[str, Any], selected: set[str], problems: dict[str, list[str]],
+               theme: Theme = LIGHT) -> dict[str, Quads]:
+    """Frames (selection/problem colour), bodies (run status colour), title bars and problem badges."""
+    frames, frame_colors, bodies, body_colors, bars, bar_colors, badges = [], [], [], [], [], [], []
     for b in boxes:
         chosen = b.node_id in selected
-        m = 0.06 if chosen else 0.025
+        m = 0.05 if chosen else 0.02
         frames.append((b.x - m, b.y + m, b.w + 2 * m, b.h + 2 * m))
-        frame_colors.append(FRAME_SELECTED if chosen else FRAME_PROBLEM if problems.get(b.node_id) else FRAME)
+        frame_colors.append(theme.selected if chosen else theme.problem if problems.get(b.node_id) else theme.frame)
         bodies.append((b.x, b.y, b.w, b.h))
-        body_colors.append(STATUS_COLORS.get((status.get(b.node_id) or (None,))[0], STATUS_COLORS[None]))
+        body_colors.append(theme.status.get((status.get(b.node_id) or (None,))[0], theme.status[None]))
         bars.append((b.x, b.y, b.w, TITLE_H * SCALE))
+        bar_colors.append(theme.terminal if b.terminal else theme.title_bar)
+        if problems.get(b.node_id):
+            s = 0.18
+            badges.append((b.x + b.w - s - 0.05, b.y - (TITLE_H * SCALE - s) / 2, s, s))
     return {
         "frame": _quads(frames, Z_FRAME, frame_colors),
         "body": _quads(bodies, Z_BODY, body_colors),
-        "title": _quads(bars, Z_TITLE, [TITLE_BAR] * len(bars)),
+        "title": _quads(bars, Z_TITLE, bar_colors),
+        "badge": _quads(badges, Z_PORTS, [theme.problem] * len(badges)),
     }
 
 
-def port_quads(boxes: list[NodeBox]) -> Quads:
-    """A square per port, coloured by type; param ports smaller."""
+def port_quads(boxes: list[NodeBox], highlight: dict[tuple[str, str, str], bool] | None = None,
+               theme: Theme = LIGHT) -> Quads:
+    """A square per port, coloured by type; param ports smaller. ``highlight`` (while a wire is dragged):
+    ``(node, kind, port) -> compatible`` grows compatible ports and greys the rest."""
     rects, colors = [], []
     for b in boxes:
         for spot in b.inputs + b.outputs:
             s = 0.08 if spot.info.param else 0.11
+            color = spot.info.color
+            if highlight is not None:
+                ok = highlight.get((b.node_id, spot.info.kind, spot.info.name), False)
+                s, color = (0.17, color) if ok else (s * 0.8, theme.dim_port)
             rects.append((spot.x - s / 2, spot.y + s / 2, s, s))
-            colors.append(spot.info.color)
+            colors.append(color)
     return _quads(rects, Z_PORTS, colors)
 
 
-def wire_segments(curves: dict[Any, np.ndarray], types: dict[Any, str], selected: set,
-                  broken: set) -> tuple[np.ndarray, np.ndarray]:
-    """All wires as (N, 2, 3) segments and (N, 2, 3) colours: by source type, selected or broken."""
+def note_quads(notes: list[NoteBox], selected: set[str], theme: Theme = LIGHT) -> dict[str, Quads]:
+    """Comment frames (a body and a title strip) and label backgrounds; selected ones edged in the selection colour."""
+    bodies, body_colors, bars, bar_colors = [], [], [], []
+    for n in notes:
+        if n.kind == "comment":
+            bodies.append((n.x, n.y, n.w, n.h))
+            body_colors.append(theme.comment)
+            bars.append((n.x, n.y, n.w, COMMENT_BAR * SCALE))
+            bar_colors.append(theme.selected if n.note_id in selected else theme.comment_bar)
+        else:
+            bars.append((n.x, n.y, n.w, n.h))
+            bar_colors.append(theme.selected if n.note_id in selected else theme.label_back)
+    return {"comment": _quads(bodies, Z_COMMENT, body_colors), "notebar": _quads(bars, Z_COMMENT + 0.005, bar_colors)}
+
+
+def wire_segments(curves: dict[Any, np.ndarray], types: dict[Any, str], highlight: set, broken: set,
+                  theme: Theme = LIGHT) -> tuple[np.ndarray, np.ndarray]:
+    """Wires as (N, 2, 3) segments and (N, 2, 3) colours: by source type, selected or broken (``highlight``
+    and ``broken`` hold wire keys)."""
     if not curves:
         return np.zeros((0, 2, 3), np.float32), np.zeros((0, 2, 3), np.uint8)
     segs, cols = [], []
     for key, pts in curves.items():
         p = np.column_stack([pts, np.full(len(pts), Z_WIRES)])
         pair = np.stack([p[:-1], p[1:]], axis=1)
-        color = WIRE_SELECTED if key in selected else WIRE_PROBLEM if key in broken else port_color(types.get(key, ""))
+        color = theme.selected if key in highlight else theme.problem if key in broken else port_color(types.get(key, ""))
         segs.append(pair)
         cols.append(np.broadcast_to(np.asarray(color, np.uint8), pair.shape))
     return np.concatenate(segs).astype(np.float32), np.concatenate(cols).astype(np.uint8)
@@ -146,34 +196,49 @@ def shorten(text: str, limit: int) -> str:
 
 
 def _value_text(value: Any) -> str:
+    if isinstance(value, bool):
+        return "yes" if value else "no"
     if isinstance(value, float):
         return f"{value:g}"
-    return shorten(repr(value) if isinstance(value, str) else str(value), 14)
+    if isinstance(value, (list, tuple)) and len(value) <= 4 and all(isinstance(v, (int, float)) for v in value):
+        return ", ".join(f"{v:g}" for v in value)
+    return shorten(str(value), 16)
 
 
-def port_label(spot: PortSpot, params: dict[str, Any], wired: bool) -> str:
+def port_label(info: PortInfo, params: dict[str, Any], wired: bool) -> str:
     """An input's name, with its stored value when it is an unwired scalar param."""
-    info = spot.info
     if info.kind == "in" and info.param and not wired and info.name in params:
         return f"{info.name} = {_value_text(params[info.name])}"
     return info.name
 
 
-def _without_node(message: str) -> str:
-    """A message without its leading "node 'x': " (the label sits under that node already)."""
-    return re.sub(r"^node '[^']*': ", "", message)
+def rows_preview(name: str, rows: Any, tag: str | None, limit: int = 3) -> list[str]:
+    """The first rows of a table param as short lines for the node (``1 line · end 40, 0, 0``), and how many more."""
+    if not isinstance(rows, list) or not rows:
+        return []
+    lines = []
+    for k, row in enumerate(rows[:limit]):
+        if not isinstance(row, dict):
+            lines.append(f"{k + 1} {_value_text(row)}")
+            continue
+        head = f"{k + 1} {row.get(tag, '')}".rstrip() if tag else f"{k + 1}"
+        fields = [f"{key} {_value_text(v)}" for key, v in row.items() if key != tag][:3]
+        lines.append(" · ".join([head, *fields]))
+    if len(rows) > limit:
+        lines.append(f"… {len(rows) - limit} more {name}")
+    return lines
 
 
 def status_text(entry: tuple[str, float | None, str | None] | None, problems: list[str]) -> str:
-    """The line under a node: its problems before a run, else its last run status and time."""
+    """The short line under a node: how many problems it has, else its last run status and time.
+    The problems' text is in the Problems list and in the side panel when the node is selected."""
     if problems:
-        first = shorten(_without_node(problems[0]), 48)
-        return f"⚠ {first}" + (f" (+{len(problems) - 1} more)" if len(problems) > 1 else "")
+        return f"{len(problems)} problem{'s' if len(problems) > 1 else ''}: see Problems"
     if entry is None:
         return ""
-    kind, duration, message = entry
+    kind, duration, _message = entry
     if kind == "failed":
-        return "✖ " + shorten(_without_node(message or "failed"), 48)
+        return "failed: see Problems"
     if kind == "done" and duration is not None:
         return f"done · {duration * 1000:.1f} ms"
     return kind

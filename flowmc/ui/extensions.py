@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import FlowmcError
+from flowmc.runtime.views import views
 from flowmc.ui import view3d_data
 from flowmc.ui.session import RunRequest
 from flowmc.ui.text import md
@@ -24,8 +25,7 @@ if TYPE_CHECKING:
 
 __all__ = ["Extensions"]
 
-VIEW_WIDTH = 600
-VIEW_HEIGHT = 640
+VIEW_WIDTH = 460
 
 
 class Extensions:
@@ -33,6 +33,9 @@ class Extensions:
         self.editor = editor
         self.session = editor.session
         self.view: Any = None
+        self.view_open = False
+        self.last: tuple[Any, Any] | None = None  # the last run's (result, plan)
+        self.view_key = ""  # the 3D View node shown
         self.front: Any = None
         self.device: Any = None
         self.failures: dict[str, str] = {}
@@ -61,10 +64,52 @@ class Extensions:
             else:
                 self.front.show_result(result.ok, "; ".join(result.errors))
         if self.view is not None and request.result is not None:
-            try:
-                self.view.show_result(request.result, self.session.state.graph)
-            except Exception as exc:  # noqa: BLE001 - a view that cannot show a result must not break the editor
-                self.editor.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
+            self.last = (request.result, request.plan)
+            self.show_view()
+
+    def show_view(self) -> None:
+        """Show the selected 3D View node (or the one shown before, or the first), inside sub-graphs too; a
+        graph with none shows the run's most downstream values, as before there were View nodes."""
+        if self.view is None or self.last is None:
+            return
+        result, plan = self.last
+        try:
+            found = views(result, plan, self.session.runtime)
+            if found:
+                chosen = self._chosen(found)
+                self.view_key = chosen.key
+                self.view.show_view(chosen)
+                something = not chosen.empty
+            else:
+                shown = self.view.show_result(result, plan.graph)
+                something = bool(shown.paths or shown.trajectories or shown.logs)
+        except Exception as exc:  # noqa: BLE001 - a view that cannot show a result must not break the editor
+            self.editor.notify("error", f"could not show the result: {type(exc).__name__}: {exc}")
+            return
+        self._view_has(something)
+
+    def _chosen(self, found: list[Any]) -> Any:
+        """The view a selected node names (its id, or the id inside a sub-graph), else the last one, else the first."""
+        for node_id in self.session.state.selected_nodes:
+            match = next((v for v in found if v.key == node_id or v.key.endswith("/" + node_id)), None)
+            if match is not None:
+                return match
+        return next((v for v in found if v.key == self.view_key), found[0])
+
+    def selection_changed(self) -> None:
+        """A 3D View node was selected: show it (when the last run reached it)."""
+        if self.last is None or self.view is None:
+            return
+        selected = set(self.session.state.selected_nodes)
+        keys = [v.key for v in views(*self.last, self.session.runtime)]
+        if any(k.rpartition("/")[2] in selected for k in keys if k != self.view_key):
+            self.show_view()
+
+    def _view_has(self, something: bool) -> None:
+        """Open the docked 3D view when it gets something to show; it starts collapsed, out of the canvas's way."""
+        if something and not self.view_open:
+            self.view_panel.expand()
+        self.view_open = self.view_open or something
 
     # ------------------------------------------------------------------ 3D view
     def _start_view(self, gui: Any) -> None:
@@ -77,9 +122,11 @@ class Extensions:
             return
         self.view_panel = gui.add_panel()
         with self.view_panel.add_tab("3D view"):
-            self.view_html = gui.add_html(embed_html(self.view.url, height=VIEW_HEIGHT))
+            self.view_html = gui.add_html(embed_html(self.view))
         self.view_panel.dock_left()
         self.view_panel.set_width(VIEW_WIDTH)
+        self.view_panel.minimize()
+        self.view_open = False
 
     def _show_log(self, log: Any) -> None:
         """A device operation's log in the 3D view, with what the last run produced."""
@@ -89,6 +136,7 @@ class Extensions:
         shown = view3d_data.collect(result, self.session.state.graph) if result is not None else None
         self.view.show(shown.paths if shown else (), shown.trajectories if shown else (), shown.machine if shown else None,
                        [*(shown.logs if shown else ()), log])
+        self._view_has(True)
 
     # ------------------------------------------------------------------ front panel
     def _interface_key(self) -> str:

@@ -40,13 +40,13 @@ def node_file(node: Node, base_dir: Path) -> Path | None:
 
 
 def drop_interface_refs(graph: Graph, gone: set[str]) -> None:
-    """Take interface entries pointing at deleted nodes out (an input left feeding nothing goes)."""
+    """Take interface entries pointing at deleted nodes out: inputs stop feeding them (an input left
+    feeding nothing stays, as an unwired terminal), outputs they fed go."""
     iface = graph.interface
     if iface is None or not gone:
         return
     for item in iface.inputs:
         item.to = [ref for ref in item.to if split_ref(ref)[0] not in gone]
-    iface.inputs = [item for item in iface.inputs if item.to]
     iface.outputs = [item for item in iface.outputs if split_ref(item.from_)[0] not in gone]
 
 

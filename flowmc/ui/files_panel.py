@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 from flowmc.errors import FlowmcError, GraphError
 from flowmc.graph import Graph, dumps
 from flowmc.runtime import resolve_inside
+from flowmc.ui.interface_check import broken_parents, interface_changed
 from flowmc.ui.text import md
 
 if TYPE_CHECKING:
@@ -85,10 +86,29 @@ class FilesPanel:
     def _new(self) -> None:
         self.state.load_text(dumps(Graph()), "untitled.flowmc.json")
 
-    def save(self) -> bool:
+    def save(self, client: Any = None, confirmed: bool = False) -> bool:
+        """Save to the open file. A file outside the editor's folder (an example) is not overwritten; a
+        sub-graph whose interface changed asks first when that breaks wires in graphs that use it."""
         state = self.state
         if state.path is None:
             return self.save_as(self.save_as_name.value)
+        if not state.path.resolve().is_relative_to(state.folder):
+            self.host.notify("error", f"{state.path.name} is outside the editor's folder (an example?): "
+                                      "use Save as to keep a copy in your folder", client)
+            return False
+        if not confirmed and interface_changed(state.graph, state.path):
+            broken = broken_parents(state.graph, state.path, state.folder, self.host.session.runtime.registry,
+                                    state.waiting)
+            if broken:
+                shown = "  \n".join(md("- {}", line) for line in broken[:12]) + (
+                    md("  \n… and {} more", len(broken) - 12) if len(broken) > 12 else "")
+                self.host.confirm("Saving changes the interface",
+                                  md("Saving {} changes its interface and breaks {} wire{} in graphs that use it:",
+                                     state.path.name, len(broken), "s" if len(broken) != 1 else "") + "  \n" + shown,
+                                  "Save anyway", lambda: self.save(client, confirmed=True), client)
+                self.host.notify("error", f"saving {state.path.name} would break {len(broken)} wire(s) in graphs "
+                                          "that use it: confirm or undo", client)
+                return False
         try:
             target = state.save()
         except FlowmcError as exc:
@@ -135,7 +155,7 @@ class FilesPanel:
     def download(self, client: Any = None) -> None:
         state = self.state
         name = state.path.name if state.path is not None else state.suggested_name
-        self.host.download(name, dumps(state.graph).encode("utf-8"), client)
+        self.host.download(name, dumps(state.graph), client)
 
     def confirm_discard(self, action: Any, client: Any = None) -> bool:
         """Do ``action`` now, or after the user agrees to lose unsaved changes (a dialog in the browser)."""

@@ -17,14 +17,14 @@ import viser
 
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
-from flowmc.ui import forms
+from flowmc.ui import forms, grid
 from flowmc.ui.forms import MISSING, FieldSpec
 from flowmc.ui.state import EditorState
-from flowmc.ui.text import md, plain
+from flowmc.ui.text import md
 
 __all__ = ["Inspector", "parse_text"]
 
-MAX_TABLE_ROWS = 60  # longer tables are edited as JSON text
+MAX_TABLE_ROWS = grid.MAX_ROWS  # longer tables are edited as JSON text
 
 
 class ParseError(ValueError):
@@ -97,6 +97,7 @@ class Inspector:
         self.fields: dict[tuple, Any] = {}
         self.errors: dict[tuple, Any] = {}
         self.specs: dict[str, FieldSpec] = {}
+        self.grids: dict[str, FieldSpec] = {}  # grid id ("node/param") -> its rows field
         self.editing = False  # True while the form itself is changing the document
         self.root: Any = None
         self.general: Any = None
@@ -108,7 +109,7 @@ class Inspector:
         with self.lock:
             if self.root is not None:
                 self.root.remove()
-            self.fields, self.errors, self.specs, self.general = {}, {}, {}, None
+            self.fields, self.errors, self.specs, self.grids, self.general = {}, {}, {}, {}, None
             nodes = self.state.selected_nodes
             self.node_id = nodes[0] if len(nodes) == 1 and self.state.has_node(nodes[0]) else None
             with self.container:
@@ -183,26 +184,50 @@ class Inspector:
         self.errors[path] = self.gui.add_markdown("", visible=False)
 
     def _add_rows(self, spec: FieldSpec, path: tuple, rows: list) -> None:
-        self.gui.add_markdown(md("**{}**: {} row{}", spec.label, len(rows), "s" if len(rows) != 1 else ""))
+        """A table param as a grid (``grid``): cells edited in place, arrow keys, tab-separated paste."""
+        self.fields[(*path, "count")] = self.gui.add_markdown(self._count(spec, rows))
         self.errors[path] = self.gui.add_markdown("", visible=False)
-        for k, row in enumerate(rows):
-            variant = str(row.get(spec.tag, "")) if isinstance(row, dict) and spec.tag else ""
-            title = plain(f"{spec.name} {k + 1}" + (f" · {variant}" if variant else ""), 80)
-            with self.gui.add_folder(title, expand_by_default=len(rows) <= 8):
-                if not isinstance(row, dict) or variant not in spec.variants:
-                    self._add_field(FieldSpec(str(k), "json", "row"), (*path, k), row)
-                    continue
-                if spec.tag:
-                    kind = self.gui.add_dropdown(spec.tag, tuple(spec.variants), initial_value=variant)
-                    kind.on_update(lambda _e, k=k, h=kind: self._row_op(spec, path, "kind", k, h.value))
-                for f in spec.variants[variant]:
-                    self._add_field(f, (*path, k, f.name), row.get(f.name, f.default))
-                ops = self.gui.add_button_group("row", ("Up", "Copy", "Remove"))
-                ops.on_click(lambda e, k=k: self._row_op(spec, path, e.target.value, k))
-                self.fields[(*path, k, "ops")] = ops
+        node_id = self.node_id or ""
+        grid_id = f"{node_id}/{spec.name}"
+        self.grids[grid_id] = spec
+        self.fields[path] = self.gui.add_html(grid.render(grid_id, spec, rows, self.state.param_errors(node_id)))
         add = self.gui.add_button_group(f"add {spec.name}", tuple(v or "row" for v in spec.variants))
-        add.on_click(lambda e: self._row_op(spec, path, "Add", None, e.target.value))
+
+        def add_row(event: Any) -> None:
+            self.grid_event(grid_id, {"op": "add", "kind": "" if event.target.value == "row" else event.target.value})
+
+        add.on_click(add_row)
         self.fields[(*path, "add")] = add
+
+    @staticmethod
+    def _count(spec: FieldSpec, rows: list) -> str:
+        return md("**{}**: {} row{} (paste cells from a spreadsheet into a cell)", spec.label, len(rows),
+                  "s" if len(rows) != 1 else "")
+
+    def grid_event(self, grid_id: Any, event: Any) -> str | None:
+        """Apply one grid event (from the page, so checked here) to its table param; returns why not, or None."""
+        with self.lock:
+            spec = self.grids.get(grid_id) if isinstance(grid_id, str) else None
+            if spec is None or self.node_id is None or not isinstance(event, dict):
+                return "that table is not shown any more"
+            try:
+                rows = grid.apply(spec, self._current(spec.name), event)
+            except grid.GridError as exc:
+                self._show((spec.name,), str(exc))
+                return str(exc)
+            self.editing = True
+            try:
+                errors = self.state.set_param(self.node_id, spec.name, rows)
+            finally:
+                self.editing = False
+            handle = self.fields.get((spec.name,))
+            if handle is not None:  # the page keeps the focused cell across the redraw
+                handle.content = grid.render(grid_id, spec, rows, errors)
+                self.fields[(spec.name, "count")].content = self._count(spec, rows)
+            self.show_errors(errors)
+            if event.get("op") != "set" and self.on_structure is not None:
+                self.on_structure()  # the node's preview rows
+            return None
 
     # ------------------------------------------------------------------ changes
     def _current(self, name: str) -> Any:
@@ -240,43 +265,23 @@ class Inspector:
             return
         self._changed(path, value)
 
-    def _row_op(self, spec: FieldSpec, path: tuple, op: str, k: int | None, arg: Any = None) -> None:
-        """Add, copy, move up, remove or change the kind of a table row; the form is rebuilt."""
-        with self.lock:
-            if self.node_id is None:
-                return
-            rows = self._current(path[0])
-            if op == "Add":
-                rows.append(forms.new_row(spec, "" if arg == "row" else arg))
-            elif op == "Remove":
-                rows.pop(k)
-            elif op == "Copy":
-                rows.insert(k + 1, copy.deepcopy(rows[k]))
-            elif op == "Up" and k > 0:
-                rows[k - 1], rows[k] = rows[k], rows[k - 1]
-            elif op == "kind" and rows[k].get(spec.tag) != arg:
-                rows[k] = forms.new_row(spec, arg, rows[k])
-            else:
-                return
-            self.editing = True
-            try:
-                self.state.set_param(self.node_id, path[0], rows)
-            finally:
-                self.editing = False
-            self.show()
-            if self.on_structure is not None:
-                self.on_structure()
-
     # ------------------------------------------------------------------ problems
-    def _show(self, path: tuple, message: str) -> None:
+    def _target(self, path: tuple, message: str) -> tuple[Any, str]:
+        """The message handle for a problem at ``path`` (its field, else the table above it, else the top)
+        and the text to show there (naming the row and field when it lands on a table)."""
         for cut in range(len(path), 0, -1):
             handle = self.errors.get(path[:cut])
             if handle is not None:
-                handle.content, handle.visible = md("⚠ **{}**", message), True
-                return
-        if self.general is not None:
-            where = ".".join(str(p) for p in path)
-            self.general.content, self.general.visible = md("⚠ **{}: {}**", where, message), True
+                rest = path[cut:]
+                if rest and isinstance(rest[0], int):
+                    message = f"row {rest[0] + 1}" + "".join(f", {p}" for p in rest[1:]) + f": {message}"
+                return handle, message
+        return self.general, ".".join(str(p) for p in path) + f": {message}"
+
+    def _show(self, path: tuple, message: str) -> None:
+        handle, text = self._target(path, message)
+        if handle is not None:
+            handle.content, handle.visible = md("⚠ **{}**", text), True
 
     def show_errors(self, errors: dict[tuple, str]) -> None:
         """Each problem under its field (or the nearest table above it); the rest at the top."""
@@ -286,5 +291,10 @@ class Inspector:
                     handle.visible = False
             if self.general is not None and self.general.visible:
                 self.general.visible = False
-            for path, message in errors.items():
-                self._show(path, message)
+            shown: dict[int, tuple[Any, list[str]]] = {}
+            for path, message in errors.items():  # a table's problems are listed together under it
+                handle, text = self._target(path, message)
+                if handle is not None:
+                    shown.setdefault(id(handle), (handle, []))[1].append(text)
+            for handle, texts in shown.values():
+                handle.content, handle.visible = "  \n".join(md("⚠ **{}**", t) for t in texts), True

@@ -1,30 +1,75 @@
-"""Canvas geometry in plain numbers: node boxes, port spots, wire curves and hit-testing.
+"""Canvas geometry in plain numbers: node boxes sized to their text, port spots, wire curves,
+comments and labels, and hit-testing.
 
 Graph files store node positions in canvas pixels (x right, y down). The scene is in world
 units with y up: ``world = (x, -y) * SCALE``. Clicks arrive as a ray; the canvas intersects it
 with the plane z = 0 and asks ``hit`` what lies under the point (ports first, then nodes, then
-wires), because viser cannot report clicks on lines or labels.
+labels, comment title bars and wires), because viser cannot report clicks on lines or labels.
+
+A node is as wide as its title and its port rows need (``MIN_W`` to ``MAX_W``); a title that does
+not fit even then is cut with an ellipsis and ``full_title`` keeps it whole for the tooltip.
+Text widths are estimated from the character count (``text_width``), generously, so text never
+runs past the box. Interface terminals of a sub-graph are boxes too, with ids ``@in:<name>`` and
+``@out:<name>`` (no node id can start with ``@``).
 """
 
 from __future__ import annotations
 
+import unicodedata
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from flowmc.ui.ports import NodePorts, PortInfo
+from flowmc.ui.ports import PortInfo
 
-__all__ = ["SCALE", "NODE_W", "TITLE_H", "ROW_H", "PortSpot", "NodeBox", "Hit", "to_world", "to_canvas", "node_box",
-           "wire_points",
-           "bounds", "ray_to_plane", "hit"]
+__all__ = ["SCALE", "TITLE_H", "ROW_H", "PREVIEW_H", "PAD", "TITLE_FONT", "PORT_FONT", "PREVIEW_FONT", "MIN_W", "MAX_W",
+           "COMMENT_BAR", "PortSpot", "NodeBox", "NoteBox", "Hit", "to_world", "to_canvas", "text_width", "fit_text",
+           "node_box", "wire_points", "bounds", "ray_to_plane", "hit", "terminal_id", "terminal_of"]
 
 SCALE = 0.01  # world units per canvas pixel
-NODE_W = 200.0  # px
-TITLE_H = 26.0
+TITLE_H = 28.0  # px
 ROW_H = 18.0
-PAD = 6.0
-PORT_PX = 11.0
+PREVIEW_H = 14.0
+PAD = 8.0
+TITLE_FONT = 13.0
+PORT_FONT = 10.5
+PREVIEW_FONT = 10.0
+MIN_W = 130.0
+MAX_W = 250.0
+BADGE_W = 22.0  # room kept right of the title for the problem badge
+COMMENT_BAR = 26.0  # the draggable title strip of a comment box
+CHAR_W = 0.56  # a character's width as a share of the font size (measured 0.51 in Chromium's label font; kept generous)
+
+
+def text_width(text: str, font: float) -> float:
+    """An upper estimate of ``text``'s width in pixels at font size ``font`` (wide characters count double)."""
+    units = sum(2.0 if unicodedata.east_asian_width(c) in "WF" else 1.0 for c in text)
+    return units * font * CHAR_W
+
+
+def fit_text(text: str, font: float, width: float) -> str:
+    """``text``, or its start and an ellipsis, so that it fits ``width`` pixels."""
+    if text_width(text, font) <= width:
+        return text
+    keep = max(1, int(width / (font * CHAR_W)) - 1)
+    while keep > 1 and text_width(text[:keep] + "…", font) > width:
+        keep -= 1
+    return text[:keep].rstrip() + "…"
+
+
+def terminal_id(kind: str, name: str) -> str:
+    """The box id of an interface terminal: ``@in:feed``, ``@out:path``."""
+    return f"@{kind}:{name}"
+
+
+def terminal_of(box_id: str) -> tuple[str, str] | None:
+    """("in" | "out", name) for a terminal box id, None for a node id."""
+    if not box_id.startswith("@"):
+        return None
+    kind, _, name = box_id[1:].partition(":")
+    return kind, name
 
 
 @dataclass(frozen=True)
@@ -32,11 +77,12 @@ class PortSpot:
     info: PortInfo
     x: float  # world
     y: float
+    label: str = ""  # the text drawn beside it (name, or "name = value")
 
 
 @dataclass
 class NodeBox:
-    """A node's rectangle in world units: top-left (x, y), width w, height h (y grows up)."""
+    """A node's (or interface terminal's) rectangle in world units: top-left (x, y), width w, height h (y up)."""
 
     node_id: str
     x: float
@@ -45,6 +91,17 @@ class NodeBox:
     h: float
     inputs: list[PortSpot] = field(default_factory=list)
     outputs: list[PortSpot] = field(default_factory=list)
+    title: str = ""
+    full_title: str = ""
+    preview: list[str] = field(default_factory=list)
+
+    @property
+    def terminal(self) -> tuple[str, str] | None:
+        return terminal_of(self.node_id)
+
+    @property
+    def elided(self) -> bool:
+        return self.title != self.full_title
 
     def contains(self, px: float, py: float, margin: float = 0.0) -> bool:
         return self.x - margin <= px <= self.x + self.w + margin and self.y - self.h - margin <= py <= self.y + margin
@@ -57,13 +114,37 @@ class NodeBox:
     def centre(self) -> tuple[float, float]:
         return self.x + self.w / 2, self.y - self.h / 2
 
+    @property
+    def rect(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) in world units."""
+        return self.x, self.y - self.h, self.x + self.w, self.y
+
+
+@dataclass(frozen=True)
+class NoteBox:
+    """A comment (``comment``: a frame with a title strip) or a free label, in world units."""
+
+    note_id: str
+    kind: str  # "comment" | "label"
+    x: float
+    y: float
+    w: float
+    h: float
+    text: str
+
+    def grab(self, px: float, py: float) -> bool:
+        """Whether a click here picks the note: a label anywhere on it, a comment on its title strip."""
+        top = self.h if self.kind == "label" else COMMENT_BAR * SCALE
+        return self.x <= px <= self.x + self.w and self.y - top <= py <= self.y
+
 
 @dataclass(frozen=True)
 class Hit:
-    """What a click landed on: kind "port" (with ``port``), "node" or "wire" (with ``wire``)."""
+    """What a click landed on: kind "port" (with ``port``), "node", "note" (``node_id`` is the note's id)
+    or "wire" (with ``wire``)."""
 
     kind: str
-    node_id: str | None = None
+    node_id: str = ""
     port: PortInfo | None = None
     wire: Any = None
 
@@ -76,15 +157,26 @@ def to_canvas(x: float, y: float) -> tuple[float, float]:
     return x / SCALE, -y / SCALE
 
 
-def node_box(node_id: str, pos: tuple[float, float], ports: NodePorts) -> NodeBox:
+def node_box(node_id: str, pos: tuple[float, float], inputs: list[tuple[PortInfo, str]],
+             outputs: list[tuple[PortInfo, str]], title: str, preview: Sequence[str] = ()) -> NodeBox:
+    """A box at ``pos`` (canvas px) wide enough for ``title`` and each row's input and output label
+    (``(port, label text)`` pairs), with ``preview`` lines under the port rows (cut to the box)."""
+    rows = max(len(inputs), len(outputs), 1)
+    need = text_width(title, TITLE_FONT) + 2 * PAD + BADGE_W
+    for k in range(rows):
+        left = text_width(inputs[k][1], PORT_FONT) + 14 if k < len(inputs) else 0.0
+        right = text_width(outputs[k][1], PORT_FONT) + 14 if k < len(outputs) else 0.0
+        need = max(need, left + right + 3 * PAD)
+    w_px = min(max(MIN_W, np.ceil(need / 10.0) * 10.0), MAX_W)
+    shown = fit_text(title, TITLE_FONT, w_px - 2 * PAD - BADGE_W)
     x, y = to_world(pos)
-    rows = max(len(ports.inputs), len(ports.outputs), 1)
-    w, h = NODE_W * SCALE, (TITLE_H + rows * ROW_H + PAD) * SCALE
-    box = NodeBox(node_id, x, y, w, h)
-    for k, info in enumerate(ports.inputs):
-        box.inputs.append(PortSpot(info, x, y - (TITLE_H + (k + 0.5) * ROW_H) * SCALE))
-    for k, info in enumerate(ports.outputs):
-        box.outputs.append(PortSpot(info, x + w, y - (TITLE_H + (k + 0.5) * ROW_H) * SCALE))
+    h_px = TITLE_H + rows * ROW_H + (len(preview) * PREVIEW_H + 4 if preview else 0) + PAD
+    lines = [fit_text(line, PREVIEW_FONT, w_px - 2 * PAD) for line in preview]
+    box = NodeBox(node_id, x, y, w_px * SCALE, h_px * SCALE, title=shown, full_title=title, preview=lines)
+    for k, (info, label) in enumerate(inputs):
+        box.inputs.append(PortSpot(info, x, y - (TITLE_H + (k + 0.5) * ROW_H) * SCALE, label))
+    for k, (info, label) in enumerate(outputs):
+        box.outputs.append(PortSpot(info, x + box.w, y - (TITLE_H + (k + 0.5) * ROW_H) * SCALE, label))
     return box
 
 
@@ -99,8 +191,8 @@ def wire_points(a: tuple[float, float], b: tuple[float, float], n: int = 16) -> 
     return basis @ ctrl
 
 
-def bounds(boxes: list[NodeBox]) -> tuple[float, float, float, float] | None:
-    """(xmin, ymin, xmax, ymax) around every box, None when there are none."""
+def bounds(boxes: list[Any]) -> tuple[float, float, float, float] | None:
+    """(xmin, ymin, xmax, ymax) around every box (nodes or notes), None when there are none."""
     if not boxes:
         return None
     return (min(b.x for b in boxes), min(b.y - b.h for b in boxes),
@@ -126,10 +218,11 @@ def _distance_to_polyline(points: np.ndarray, p: np.ndarray) -> float:
     return float(np.min(np.linalg.norm(nearest - p, axis=1)))
 
 
-def hit(boxes: list[NodeBox], wires: dict[Any, np.ndarray], x: float, y: float, tol: float = 0.08) -> Hit | None:
-    """The topmost thing at world point (x, y): a port (within ``tol``), a node, or a wire (within ``tol``).
-    Later boxes are drawn on top, so they are tried first."""
-    port_reach = max(tol, PORT_PX * SCALE)
+def hit(boxes: list[NodeBox], wires: dict[Any, np.ndarray], x: float, y: float, tol: float = 0.08,
+        notes: Sequence[NoteBox] = ()) -> Hit | None:
+    """The topmost thing at world point (x, y): a port (within ``tol``), a node, a label or a comment's
+    title strip, or a wire (within ``tol``). Later boxes are drawn on top, so they are tried first."""
+    port_reach = max(tol, 11.0 * SCALE)
     best: tuple[float, Hit] | None = None
     for box in reversed(boxes):
         if not box.contains(x, y, margin=port_reach):
@@ -143,6 +236,9 @@ def hit(boxes: list[NodeBox], wires: dict[Any, np.ndarray], x: float, y: float, 
     for box in reversed(boxes):
         if box.contains(x, y):
             return Hit("node", box.node_id)
+    for note in sorted(notes, key=lambda n: n.kind != "label"):  # labels sit above comments
+        if note.grab(x, y):
+            return Hit("note", note.note_id)
     p = np.array([x, y])
     near = [(_distance_to_polyline(pts, p), key) for key, pts in wires.items() if len(pts) > 1]
     near = [(d, key) for d, key in near if d <= tol]

@@ -5,33 +5,42 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from flowmc.graph import Issue
-from flowmc.ui import canvas_draw, layout
-from flowmc.ui.palette import PaletteItem, palette_items, search
+from flowmc.ui import canvas_draw
+from flowmc.ui.palette import PaletteItem, categories, palette_items, search
 from flowmc.ui.text import md, plain
 
 if TYPE_CHECKING:
     from flowmc.ui.session import PanelHost
 
-__all__ = ["PalettePanel", "ProblemsPanel", "free_spot"]
+__all__ = ["PalettePanel", "ProblemsPanel"]
 
-MAX_RESULTS = 14
 MAX_PROBLEMS = 25
 
 
 class PalettePanel:
-    """A search box and one button per matching entry; a click adds that node in the middle of the view.
-    ``buttons`` is keyed by ``PaletteItem.key`` (``path.translate``, ``lib.pocket``, ``subgraph:part.flowmc.json``)."""
+    """The node palette, built in ``container`` (a tab): a search box and one button per
+    entry, in category folders (or, while searching, the matches best first). A click adds the node
+    at a free spot in the middle of the view; dragging a button onto the canvas adds it where it is
+    dropped (the page script sends ``palette-drop``). ``buttons`` is keyed by ``PaletteItem.key``
+    (``path.translate``, ``lib.pocket``, ``subgraph:part.flowmc.json``)."""
 
-    def __init__(self, host: "PanelHost"):
-        self.host = host
+    def __init__(self, host: "PanelHost", container: Any):
+        self.host, self.container = host, container
         gui = host.gui
-        self.search = gui.add_text("Search", "", hint="Type part of a name, category or description")
-        self.count = gui.add_markdown("")
-        self.folder = gui.add_folder("Results", expand_by_default=True)
+        with container:
+            self._build(gui)
+        self.folders: list[Any] = []
         self.buttons: dict[str, Any] = {}
+        self.by_label: dict[str, PaletteItem] = {}
         self.items: list[PaletteItem] = []
         self.search.on_update(lambda _e: self.refresh(reload=False))
         self.refresh()
+
+    def _build(self, gui: Any) -> None:
+        gui.add_html('<div data-flowmc-palette="1" style="font-size:12px;opacity:.75">'
+                     'Click to add at the middle of the view, or drag onto the canvas.</div>')
+        self.search = gui.add_text("Search", "", hint="Part of a name, category, description or port type (e.g. Trajectory)")
+        self.count = gui.add_markdown("")
 
     def refresh(self, reload: bool = True) -> None:
         """Show the entries matching the search text (``reload``: look at the node types and files again)."""
@@ -39,18 +48,29 @@ class PalettePanel:
         with self.host.session.lock:
             if reload or not self.items:
                 self.items = palette_items(self.host.session.runtime.registry, state.base_dir, exclude=state.path)
-            found = search(self.items, self.search.value)
-            self.count.content = md("{} of {} entries", len(found), len(self.items)) + (
-                md("; the first {} shown", MAX_RESULTS) if len(found) > MAX_RESULTS else "")
-            for button in self.buttons.values():
-                button.remove()
-            self.buttons = {}
-            with self.folder:
-                for item in found[:MAX_RESULTS]:
-                    button = gui.add_button(plain(f"{item.title}  ·  {item.category}", 120),
-                                            hint=plain(f"{item.key}: {item.description}"))
-                    button.on_click(lambda _e, item=item: self.add(item))
-                    self.buttons[item.key] = button
+            query = self.search.value.strip()
+            found = search(self.items, query)
+            self.count.content = (md("{} of {} entries match", len(found), len(self.items)) if query
+                                  else md("{} entries", len(self.items)))
+            for folder in self.folders:
+                folder.remove()
+            self.folders, self.buttons, self.by_label = [], {}, {}
+            groups = {"Matches": found} if query else categories(found)
+            with self.container:
+                for name, items in groups.items():
+                    folder = gui.add_folder(plain(name, 80), expand_by_default=True)
+                    self.folders.append(folder)
+                    with folder:
+                        for item in items:
+                            self._button(item)
+
+    def _button(self, item: PaletteItem) -> None:
+        label = plain(item.title if item.title not in self.by_label else f"{item.title} ({item.category})", 120)
+        hint = plain(item.description + (f"\n{item.ports}" if item.ports else ""))
+        button = self.host.gui.add_button(label, hint=hint, color="gray")
+        button.on_click(lambda _e, item=item: self.add(item))
+        self.buttons[item.key] = button
+        self.by_label[label] = item
 
     def add(self, item: PaletteItem, at: tuple[float, float] | None = None) -> str:
         """Add ``item`` at the free spot nearest ``at`` (canvas pixels; default the middle of the view), and select it."""
@@ -58,22 +78,10 @@ class PalettePanel:
         self.host.notify("info", f"added {node_id} ({item.title})")
         return node_id
 
-
-def free_spot(boxes: list[layout.NodeBox], centre: tuple[float, float], size: tuple[float, float] = (200.0, 140.0),
-              gap: float = 30.0) -> tuple[float, float]:
-    """Top-left (canvas pixels) of a ``size`` box near ``centre`` that overlaps no node, searched ring by ring."""
-    taken = [(b.x / layout.SCALE, -b.y / layout.SCALE, b.w / layout.SCALE, b.h / layout.SCALE) for b in boxes]
-    step_x, step_y = size[0] + gap, size[1] + gap
-    x0, y0 = centre[0] - size[0] / 2, centre[1] - size[1] / 2
-    for ring in range(0, 40):
-        cells = [(i, j) for i in range(-ring, ring + 1) for j in range(-ring, ring + 1) if max(abs(i), abs(j)) == ring]
-        cells.sort(key=lambda c: ((c[0] * step_x) ** 2 + (c[1] * step_y) ** 2, -c[0], -c[1]))
-        for i, j in cells:
-            x, y = x0 + i * step_x, y0 + j * step_y
-            if all(x + size[0] + gap <= bx or bx + bw + gap <= x or y + size[1] + gap <= by or by + bh + gap <= y
-                   for bx, by, bw, bh in taken):
-                return round(x, 1), round(y, 1)
-    return round(x0, 1), round(y0, 1)
+    def dropped(self, label: Any, at: tuple[float, float]) -> str | None:
+        """A palette button dropped on the canvas at ``at`` (canvas px): add its entry there."""
+        item = self.by_label.get(label) if isinstance(label, str) else None
+        return self.add(item, at) if item is not None else None
 
 
 class ProblemsPanel:

@@ -1,11 +1,14 @@
-"""What can be done with the selection, above the inspector: delete it, open a sub-graph node's file,
-make a sub-graph from the selected nodes, or go back to the graph a sub-graph was opened from."""
+"""What can be done with the selection, above the inspector: delete it, align it, open a sub-graph
+node's file, make a sub-graph from the selected nodes, go back to the graph a sub-graph was opened
+from; edit a comment's or label's text, rename an interface terminal."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import FlowmcError
+from flowmc.ui.arrange import ALIGNMENTS
+from flowmc.ui.layout import terminal_of
 from flowmc.ui.text import md
 
 if TYPE_CHECKING:
@@ -29,7 +32,14 @@ class SelectionPanel:
                                          hint="New file for the selected nodes, in this graph's folder")
             self.make_button = gui.add_button("Make sub-graph from selection",
                                               hint="Wires crossing the selection become the new file's interface")
+            self.align = gui.add_dropdown("Align", ("choose…", *ALIGNMENTS), hint="Line up or spread the selected nodes")
+            self.note_text = gui.add_text("Text", "", multiline=True, hint="The comment's or label's text")
+            self.terminal_name = gui.add_text("Port name", "", hint="The interface port's name (its wires follow)")
         self.delete_button.on_click(lambda _e: host.edit("Delete"))
+        self.align.on_update(lambda _e: self._align())
+        self.note_text.on_update(lambda _e: self._note_text())
+        self.terminal_name.on_update(lambda _e: self._rename())
+        self._showing = False  # True while show() sets the fields (their updates are not edits)
         self.open_button.on_click(lambda _e: self.open_subgraph())
         self.back_button.on_click(lambda _e: self.go_back())
         self.make_button.on_click(lambda _e: self.make_subgraph())
@@ -43,12 +53,52 @@ class SelectionPanel:
                          + ("…" if len(nodes) > 8 else ""))
         if wires:
             parts.append(f"wire {wires[0][0]} → {wires[0][1]}" if len(wires) == 1 else f"{len(wires)} wires")
+        notes = state.selected_notes
+        if notes:
+            parts.append(("note " if len(notes) == 1 else f"{len(notes)} notes: ") + ", ".join(n[1:] for n in notes[:8]))
         self.summary.content = md("Selected: {}", "; ".join(parts)) if parts else \
-            "Nothing selected. Click a node or a wire; shift-click to add to the selection."
-        self.delete_button.visible = bool(nodes or wires)
-        self.open_button.visible = len(nodes) == 1 and self._file_of(nodes[0]) is not None
+            "Nothing selected. Click a node, a wire or a note; shift-click to add to the selection."
+        real = [n for n in nodes if terminal_of(n) is None]
+        self.delete_button.visible = bool(nodes or wires or notes)
+        self.open_button.visible = len(nodes) == 1 and not nodes[0].startswith("@") and self._file_of(nodes[0]) is not None
         self.back_button.visible = bool(state.parents)
-        self.sub_name.visible = self.make_button.visible = bool(nodes)
+        self.sub_name.visible = self.make_button.visible = bool(real)
+        self.align.visible = len(nodes) + len(notes) >= 2
+        one_note = state.note(notes[0]) if len(notes) == 1 and not nodes else None
+        one_terminal = terminal_of(nodes[0]) if len(nodes) == 1 and not notes else None
+        self._showing = True
+        try:
+            self.note_text.visible = one_note is not None
+            if one_note is not None and self.note_text.value != one_note.text:
+                self.note_text.value = one_note.text
+            self.terminal_name.visible = one_terminal is not None
+            if one_terminal is not None and self.terminal_name.value != one_terminal[1]:
+                self.terminal_name.value = one_terminal[1]
+        finally:
+            self._showing = False
+
+    def _align(self) -> None:
+        how = self.align.value
+        if how in ALIGNMENTS:
+            self.host.edit(f"Align:{how}")
+            self.align.value = "choose…"
+
+    def _note_text(self) -> None:
+        state = self.session.state
+        if self._showing or len(state.selected_notes) != 1:
+            return
+        with self.session.lock:
+            state.set_note(state.selected_notes[0], text=self.note_text.value)
+
+    def _rename(self) -> None:
+        state = self.session.state
+        if self._showing or len(state.selected_nodes) != 1 or terminal_of(state.selected_nodes[0]) is None:
+            return
+        with self.session.lock:
+            try:
+                state.rename_terminal(state.selected_nodes[0], self.terminal_name.value.strip())
+            except FlowmcError as exc:
+                self.host.notify("error", str(exc))
 
     def _file_of(self, node_id: str) -> Any:
         try:
@@ -73,11 +123,14 @@ class SelectionPanel:
         return True
 
     def go_back(self) -> bool:
+        """Save the sub-graph (asking first if that breaks its parents) and return to the graph that opened it."""
         host, state = self.host, self.session.state
         with self.session.lock:
-            try:
+            if state.dirty:
+                host.edit("Save")
                 if state.dirty:
-                    state.save()
+                    return False  # not saved: a dialog asks, or the save failed and said why
+            try:
                 state.leave()
             except FlowmcError as exc:
                 host.notify("error", str(exc))

@@ -73,8 +73,8 @@ class PanelHost(Protocol):
 
     def export_gcode(self, client: Any = None) -> Any: ...
 
-    def download(self, name: str, data: bytes, client: Any = None) -> None:
-        """Hand ``data`` to the browser as the file ``name`` (one click, no second prompt)."""
+    def download(self, name: str, text: str, client: Any = None) -> None:
+        """Hand ``text`` to the browser as the file ``name`` (one click, no second prompt)."""
 
     def confirm(self, title: str, text: str, button: str, action: Callable[[], object], client: Any = None) -> Any:
         """Ask in a dialog; ``action()`` runs (under the lock) when the user presses ``button``."""

@@ -6,6 +6,11 @@ docked panel through ``embed_html(view.url)``. Scene units are millimetres, Z up
 Scene nodes: ``/machine/travel`` (box edges), ``/path/<i>`` (programmed paths), ``/trajectory/<i>``
 (setpoints, coloured by speed), ``/device/<i>`` (positions a device log recorded), ``/tool`` (the
 marker the playback slider moves along the followed motion).
+
+Everything is drawn with line segments, the marker too: the first Run used to freeze the page for
+2.6-6.3 s under software WebGL while the browser compiled the lit material of a sphere marker.
+The editor shows the view in a frame at the other name of this machine (``embed_html``), so the
+browser runs it in its own process.
 """
 
 from __future__ import annotations
@@ -37,12 +42,22 @@ _MARKER_RGB = (30, 30, 30)
 _LOG_RGB = (120, 60, 160)
 
 
-def embed_html(url: str, height: int = 520) -> str:
-    """The ``<iframe>`` the editor puts in a docked panel (``gui.add_html(embed_html(view.url))``)."""
-    src = html.escape(url, quote=True)
-    return (f'<iframe src="{src}" title="flowmc 3D view" '
-            f'style="width:100%;height:{int(height)}px;border:0;display:block"></iframe>'
-            f'<a href="{src}" target="_blank" rel="noopener">Open the 3D view in its own tab</a>')
+def embed_html(view: "ToolpathView", height: str = "calc(100vh - 110px)") -> str:
+    """The ``<iframe>`` the editor puts in a docked panel. The page script (``viser_internals``) sets its
+    address from ``data-flowmc-port`` and ``data-flowmc-token``: this machine under its other name, so
+    the frame is cross-site."""
+    href = html.escape(view.url, quote=True)
+    token = html.escape(view.guard.token, quote=True)
+    style = html.escape(f"width:100%;height:{height};border:0;display:block", quote=True)
+    return (f'<iframe data-flowmc-port="{int(view.server.get_port())}" data-flowmc-token="{token}" '
+            f'title="flowmc 3D view" style="{style}"></iframe>'
+            f'<a href="{href}" target="_blank" rel="noopener">Open the 3D view in its own tab</a>')
+
+
+def _marker_lines(size: float) -> np.ndarray:
+    """Three axis-aligned strokes through the origin, ``size`` long each side: the playback marker."""
+    return np.array([[[-size, 0, 0], [size, 0, 0]], [[0, -size, 0], [0, size, 0]], [[0, 0, -size], [0, 0, size]]],
+                    dtype=np.float32)
 
 
 class ToolpathView:
@@ -75,7 +90,9 @@ class ToolpathView:
         self._playing = threading.Event()
         self._closed = threading.Event()
         self._build_gui()
-        self.marker = self.server.scene.add_icosphere("/tool", radius=1.0, color=_MARKER_RGB, visible=False)
+        self.marker = self.server.scene.add_line_segments(
+            "/tool", _marker_lines(1.0), data.linear_rgb(np.full((3, 2, 3), _MARKER_RGB, np.uint8)), thickness=4.0,
+            thickness_units="screen", visible=False)
         self._player = threading.Thread(target=self._play_loop, name="flowmc-view3d-player", daemon=True)
         self._player.start()
 
@@ -129,6 +146,19 @@ class ToolpathView:
                 self.follow.value = chosen.name  # fires _on_follow
             else:
                 self._select(chosen)
+
+    def show_view(self, view: Any) -> None:
+        """Show what one 3D View node (a ``flowmc.runtime.views.View``) was wired to."""
+        values, params = view.values, view.params
+        self.tol = float(params.get("tolerance") or self.tol)
+        motions = [(values[k], f"{view.key}.{k}") for k in ("trajectory", "steps") if values.get(k) is not None]
+        self.show([values["path"]] if values.get("path") is not None else [], [m for m, _ in motions],
+                  values.get("machine") if params.get("travel_box", True) else None,
+                  [values["log"]] if values.get("log") is not None else [], names=[n for _, n in motions])
+        if view.empty:
+            self.info.content = md("**{}**: nothing wired into it arrived in this run.", view.title)
+        else:
+            self.info.content = md("**{}**  \n", view.title) + self.info.content
 
     def show_result(self, result: Any, graph: Any = None) -> data.Shown:
         """Show what a ``RunResult`` produced (see ``view3d_data.collect``); returns what was picked."""
@@ -192,7 +222,7 @@ class ToolpathView:
             cam = client.camera
             cam.near, cam.far, cam.up_direction = radius / 200.0, radius * 50.0, (0.0, 0.0, 1.0)
             cam.position, cam.look_at = tuple(eye), tuple(centre)
-        self.marker.radius = radius * 0.025
+        self.marker.points = _marker_lines(radius * 0.05)
 
     def _set_info(self, paths: list[Path], motions: list[data.Motion], machine: Machine | None) -> None:
         if not paths and not motions:

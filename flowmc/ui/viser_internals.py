@@ -1,15 +1,27 @@
 """The only place the editor reaches past viser 1.1.1's public API (pinned in pyproject).
 
-viser has no way to stop the camera orbiting, and none to set the browser tab's title. Both are
-a few lines of JavaScript sent with viser's internal ``RunJavascriptMessage`` to one client (so
-nothing piles up in the broadcast buffer that new clients replay). The script reads
-``window.__viserMutable.cameraControl``, the camera-controls instance viser keeps for its own
-browser tests: once the server's top-down pose has arrived it freezes the polar angle at a
-right angle and the azimuth at the nearest quarter turn (the view stays flat on the canvas),
-maps left and right drag to panning, zooms toward the cursor, and turns the view back if anything
-turns it (a pan was seen to turn it by 0.24 degrees). If a future viser renames
-these, the camera simply orbits again; nothing else depends on them.
+viser has no way to stop the camera orbiting, set the browser tab's title, place notifications,
+start a download without a second click, or send page events viser does not know (a palette entry
+dropped on the canvas, text pasted from the clipboard, a grid cell edited). Each is a few lines
+of JavaScript sent with viser's internal ``RunJavascriptMessage`` to one client (so nothing piles
+up in the broadcast buffer that new clients replay).
 
+The camera script reads ``window.__viserMutable.cameraControl``, the camera-controls instance viser
+keeps for its own browser tests: once the server's top-down pose has arrived it freezes the polar
+angle at a right angle and the azimuth at the nearest quarter turn (the view stays flat on the
+canvas), maps left and right drag to panning, zooms toward the cursor, and turns the view back if
+anything turns it (a pan was seen to turn it by 0.24 degrees).
+
+The page script (``install_page``) defines ``window.flowmc``: ``send(kind, data)`` posts an event to
+the server as a value of one text field, the page channel (viser's own ``GuiUpdateMessage`` for
+that field, so the guard below checks it like any control; the script hides its row; a counter
+makes every message new), and ``download(name, text)``. It moves viser's notifications to the
+bottom left corner of the canvas, and points ``iframe[data-flowmc-port]`` at
+the other name of this machine (``127.0.0.1`` <-> ``localhost``) with the frame's token in its
+address and in viser's ``websocket`` parameter (a cross-site frame gets no cookie): the browser
+runs a cross-site frame in its own process, so the 3D view's work never stalls the editor's canvas.
+If a future viser renames these, the camera orbits again and the extras stop; nothing else depends
+on them.
 viser 1.1.1 has no hook to vet connections or client messages, so ``guarded_server`` adds two
 small layers (``flowmc.ui.guard`` holds the policy; docs/security.md says why):
 - every HTTP request and websocket handshake passes ``Guard.check`` first. viser starts its server
@@ -37,12 +49,160 @@ from viser import _messages
 
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
-__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "MAX_UPLOAD_BYTES"]
+__all__ = ["guarded_server", "lock_flat_camera", "set_page_title", "install_page", "download", "run_js", "set_tips",
+           "MAX_UPLOAD_BYTES", "CHANNEL_LABEL"]
 
 MAX_UPLOAD_BYTES = 32 * 1024 * 1024  # a graph file is far smaller; G-code files are not uploaded
 MAX_TEXT_VALUE = 1_000_000  # characters a text field may be set to
 _SECURITY_HEADERS = {"Referrer-Policy": "no-referrer", "X-Content-Type-Options": "nosniff", "Cache-Control": "no-store"}
 _build_lock = threading.Lock()
+CHANNEL_LABEL = "flowmc page events"  # the text field the page script sends through (hidden)
+
+_PAGE_JS = """
+(function flowmcPage(channel) {
+  if (window.flowmc) { window.flowmc.channel = channel; return; }
+  let counter = 0;
+  const flowmc = window.flowmc = { channel: channel, handlers: [] };
+  flowmc.send = (kind, data) => {
+    const m = window.__viserMutable;
+    if (!m || !m.sendMessage) return false;
+    counter += 1;
+    m.sendMessage({ type: "GuiUpdateMessage", uuid: flowmc.channel,
+                    updates: { value: JSON.stringify({ kind: kind, n: counter, t: Date.now(), data: data }) } });
+    return true;
+  };
+  flowmc.download = (name, text) => {
+    const url = URL.createObjectURL(new Blob([text], { type: "application/octet-stream" }));
+    const a = document.createElement("a");
+    a.href = url; a.download = name; a.style.display = "none";
+    document.body.appendChild(a); a.click(); a.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 60000);
+  };
+  const style = document.createElement("style");
+  style.textContent = `.mantine-Notifications-root { top: auto !important; bottom: 12px !important;
+      left: 12px !important; width: 300px !important; }`;
+  document.head.appendChild(style);
+  const otherHost = () => {
+    const h = location.hostname;
+    return h === "127.0.0.1" ? "localhost" : (h === "localhost" ? "127.0.0.1" : h);
+  };
+  const point = (frame) => {
+    const at = otherHost() + ":" + frame.dataset.flowmcPort, token = encodeURIComponent(frame.dataset.flowmcToken || "");
+    const socket = encodeURIComponent((location.protocol === "https:" ? "wss://" : "ws://") + at + "/?token=" + token);
+    const src = location.protocol + "//" + at + "/?token=" + token + "&websocket=" + socket;
+    if (frame.getAttribute("src") !== src) frame.setAttribute("src", src);
+  };
+  const hide = (label) => { if (label.textContent === LABEL) { const row = label.closest(".mantine-Flex-root");
+    if (row) row.style.display = "none"; } };
+  const refocus = (table) => {  // a grid redrawn after an edit: back to the cell that had the focus
+    const f = flowmc.gridFocus;
+    if (!f || table.dataset.flowmcGrid !== f.grid || (document.activeElement && document.activeElement !== document.body)) return;
+    const el = cell(table, f.r, f.c);
+    if (el) el.focus();
+  };
+  const scan = (root) => { if (!root.querySelectorAll) return;
+    root.querySelectorAll("iframe[data-flowmc-port]").forEach(point); root.querySelectorAll("label").forEach(hide);
+    root.querySelectorAll("table[data-flowmc-grid]").forEach(refocus); };
+  new MutationObserver(records => records.forEach(r => r.addedNodes.forEach(scan))).observe(document.body,
+                                                                                          { childList: true, subtree: true });
+  scan(document);
+  const inField = (t) => t && t.closest && t.closest("input, textarea, select, [contenteditable]");
+  const viewPoint = (e) => { const c = window.__viserMutable && window.__viserMutable.canvas; if (!c) return null;
+    const r = c.getBoundingClientRect(); const u = (e.clientX - r.left) / r.width, v = (e.clientY - r.top) / r.height;
+    return (u >= 0 && u <= 1 && v >= 0 && v <= 1) ? { u: u, v: v } : null; };
+  const gridOf = (el) => el && el.closest && el.closest("table[data-flowmc-grid]");
+  const cell = (g, r, c) => g.querySelector(`[data-r="${r}"][data-c="${c}"]`);
+  const gridSend = (el, extra) =>
+    flowmc.send("grid", Object.assign({ grid: gridOf(el).dataset.flowmcGrid, row: Number(el.dataset.r) }, extra));
+  document.addEventListener("change", (e) => {  // a grid cell edited
+    const t = e.target;
+    if (gridOf(t) && t.dataset.c !== undefined)
+      gridSend(t, { op: "set", col: t.dataset.c, value: t.type === "checkbox" ? String(t.checked) : t.value });
+  }, true);
+  document.addEventListener("click", (e) => {
+    const b = e.target.closest && e.target.closest("button[data-act]");
+    if (b && gridOf(b)) gridSend(b, { op: b.dataset.act });
+    const map = e.target.closest && e.target.closest("svg[data-flowmc-minimap]");
+    if (map) {  // the minimap: x0, y1 (world top-left) and pixels per world unit
+      const [x0, y1, scale] = map.dataset.flowmcMinimap.split(",").map(Number), r = map.getBoundingClientRect();
+      flowmc.send("minimap", { x: x0 + (e.clientX - r.left - 4) / scale, y: y1 - (e.clientY - r.top - 4) / scale });
+    }
+  }, true);
+  document.addEventListener("focusin", (e) => {
+    const g = gridOf(e.target);
+    if (g && e.target.dataset.c !== undefined)
+      flowmc.gridFocus = { grid: g.dataset.flowmcGrid, r: e.target.dataset.r, c: e.target.dataset.c };
+  }, true);
+  document.addEventListener("keydown", (e) => {  // arrows and Enter move between cells
+    const t = e.target, g = gridOf(t);
+    if (!g || t.dataset.c === undefined) return;
+    const r = Number(t.dataset.r), cols = [...g.querySelectorAll(`[data-r="${r}"][data-c]`)], k = cols.indexOf(t);
+    const text = t.tagName === "INPUT" && t.type !== "checkbox";
+    let next = null;
+    if (e.key === "ArrowDown" || e.key === "Enter") next = cell(g, r + 1, t.dataset.c);
+    else if (e.key === "ArrowUp") next = cell(g, r - 1, t.dataset.c);
+    else if (e.key === "ArrowLeft" && (!text || t.selectionStart === 0)) next = cols[k - 1];
+    else if (e.key === "ArrowRight" && (!text || t.selectionEnd === t.value.length)) next = cols[k + 1];
+    if (t.tagName === "SELECT" && (e.key === "ArrowDown" || e.key === "ArrowUp")) return;
+    if (next) { e.preventDefault(); if (t.tagName === "INPUT" && text) t.dispatchEvent(new Event("change", { bubbles: true }));
+      next.focus(); if (next.select) next.select(); }
+  }, true);
+  document.addEventListener("paste", (e) => {  // Ctrl+V on the canvas: the server pastes this text, or its own copy
+    const text0 = (e.clipboardData && e.clipboardData.getData("text/plain")) || "";
+    if (gridOf(e.target) && e.target.dataset.c !== undefined) {  // cells from a spreadsheet: fill the grid from here
+      if (/[\\t\\n]/.test(text0.replace(/\\s+$/, ""))) {
+        e.preventDefault();
+        gridSend(e.target, { op: "paste", col: e.target.dataset.c, text: text0 });
+      }
+      return;
+    }
+    if (inField(e.target)) return;
+    const text = (e.clipboardData && e.clipboardData.getData("text/plain")) || "";
+    flowmc.send("paste", text.length <= 900000 ? text : "");
+    e.preventDefault();
+  });
+  let drag = null;  // a palette button dragged onto the canvas
+  document.addEventListener("pointerdown", (e) => {
+    const button = e.button === 0 && e.target.closest && e.target.closest("button");
+    const marker = document.querySelector("[data-flowmc-palette]");
+    const root = marker && marker.closest(".mantine-ScrollArea-content");  // the palette tab's scrolling list
+    if (button && root && root.contains(button))
+      drag = { label: button.textContent.trim(), x: e.clientX, y: e.clientY, ghost: null };
+  }, true);
+  document.addEventListener("pointermove", (e) => {
+    if (drag && !drag.ghost && Math.hypot(e.clientX - drag.x, e.clientY - drag.y) > 8) {
+      const g = drag.ghost = document.createElement("div");
+      g.textContent = drag.label;
+      g.style.cssText = "position:fixed;z-index:10000;pointer-events:none;padding:4px 10px;border-radius:4px;" +
+        "background:#228be6;color:#fff;font:13px sans-serif;box-shadow:0 2px 6px rgba(0,0,0,.3)";
+      document.body.appendChild(g);
+    }
+    if (drag && drag.ghost) { drag.ghost.style.left = (e.clientX + 10) + "px"; drag.ghost.style.top = (e.clientY + 10) + "px"; }
+    tip(e);
+  }, true);
+  document.addEventListener("pointerup", (e) => {
+    const d = drag; drag = null;
+    if (!d || !d.ghost) return;
+    d.ghost.remove();
+    const at = viewPoint(e);
+    if (at) flowmc.send("palette-drop", { label: d.label, u: at.u, v: at.v });
+  }, true);
+  flowmc.tips = [];  // [x0, y0, x1, y1, text]: canvas rectangles (world units) whose full text shows on hover
+  const tip = (e) => {
+    const m = window.__viserMutable, c = m && m.canvas, body = m && m.nodeRefFromName && m.nodeRefFromName["/canvas/body"];
+    if (!c || !body || !body.parent || e.target !== c) return;
+    const r = c.getBoundingClientRect(), V = m.camera.position.constructor;
+    const screen = (x, y) => { const v = new V(x, y, 0); body.parent.localToWorld(v); v.project(m.camera);
+      return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height]; };
+    let text = "";
+    for (const [x0, y0, x1, y1, t] of flowmc.tips) {
+      const [a, b] = screen(x0, y1), [cx, cy] = screen(x1, y0);
+      if (e.clientX >= a && e.clientX <= cx && e.clientY >= b && e.clientY <= cy) { text = t; break; }
+    }
+    if (c.title !== text) c.title = text;
+  };
+})(CHANNEL);
+"""
 
 # camera-controls ACTION codes (v2): TRUCK pans, DOLLY zooms; TOUCH_TRUCK pans with one finger.
 _LOCK_JS = """
@@ -79,6 +239,28 @@ def lock_flat_camera(client: Any) -> None:
 def set_page_title(client: Any, title: str) -> None:
     """The browser tab's title (the editor puts the file name and the unsaved-changes mark there)."""
     _send(client, f"document.title = {json.dumps(title)};")
+
+
+def run_js(client: Any, source: str) -> None:
+    """Run ``source`` in ``client``'s page."""
+    _send(client, source)
+
+
+def install_page(client: Any, channel: Any) -> None:
+    """``window.flowmc`` in ``client``'s page; its events arrive as updates of the text field ``channel``
+    (labelled ``CHANNEL_LABEL``, which the script hides)."""
+    source = _PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
+    _send(client, source)
+
+
+def set_tips(client: Any, tips: list[tuple[float, float, float, float, str]]) -> None:
+    """Hover texts for canvas rectangles (world xmin, ymin, xmax, ymax): the full titles of cut node titles."""
+    _send(client, f"window.flowmc && (window.flowmc.tips = {json.dumps(tips)});")
+
+
+def download(client: Any, name: str, text: str) -> None:
+    """Save ``text`` as the file ``name`` in ``client``'s browser at once (viser's own download asks twice)."""
+    _send(client, f"window.flowmc && window.flowmc.download({json.dumps(name)}, {json.dumps(text)});")
 
 
 # ---------------------------------------------------------------------------------------- the guard

@@ -9,7 +9,7 @@ import networkx as nx
 from flowmc.graph import Graph, split_ref
 from flowmc.ui.ports import NodePorts
 
-__all__ = ["refusal", "loop_through"]
+__all__ = ["refusal", "terminal_refusal", "loop_through"]
 
 
 def refusal(graph: Graph, ports: Callable[[str], NodePorts], src: str, dst: str) -> str | None:
@@ -40,6 +40,33 @@ def refusal(graph: Graph, ports: Callable[[str], NodePorts], src: str, dst: str)
     if loop:
         return f"wiring {src} -> {dst} would close a loop: {' -> '.join(loop)}"
     return None
+
+
+def terminal_refusal(graph: Graph, ports: Callable[[str], NodePorts], src: str, dst: str) -> str | None:
+    """Why an interface input terminal ``@in:x`` may not feed input ``dst``, or why output ``src`` may
+    not feed the interface output terminal ``@out:y`` (None when it may)."""
+    iface = graph.interface
+    ids = {n.id for n in graph.nodes}
+    if src.startswith("@in:") and not dst.startswith("@"):
+        item = next((i for i in iface.inputs if i.name == src[4:]), None) if iface is not None else None
+        node_id, port = split_ref(dst)
+        inp = ports(node_id).input(port) if node_id in ids else None
+        if item is None or inp is None:
+            return f"there is no interface input {src[4:]!r} or no input {dst}"
+        if not inp.accepts(item.type):
+            return (f"cannot wire interface input {item.name!r} ({item.type}) to {dst}: it takes "
+                    f"{' or '.join(inp.types)}")
+        return None if dst not in item.to else f"interface input {item.name!r} already feeds {dst}"
+    if dst.startswith("@out:") and not src.startswith("@"):
+        given = next((o for o in iface.outputs if o.name == dst[5:]), None) if iface is not None else None
+        node_id, port = split_ref(src)
+        out = ports(node_id).output(port) if node_id in ids else None
+        if given is None or out is None:
+            return f"there is no interface output {dst[5:]!r} or no output {src}"
+        if out.type != given.type:
+            return f"cannot wire {src} ({out.type}) to interface output {given.name!r}: it is a {given.type}"
+        return None
+    return "wire an interface input to a node input, or a node output to an interface output"
 
 
 def loop_through(wires: list[tuple[str, str]], src_node: str, dst_node: str) -> list[str]:

@@ -134,3 +134,24 @@ def test_unwritable_results_file_is_one_line(tmp_path):
     assert proc.returncode == 1
     assert proc.stderr.startswith("error: ") and len(proc.stderr.strip().splitlines()) == 1
     _no_traceback(proc)
+
+
+def test_every_help_text_speaks_to_users_not_about_the_code():
+    """Every command and option explains itself, with no code in the words (``args.with_``, module paths)."""
+    import argparse
+    import re
+
+    from flowmc.cli import build_parser
+
+    parser = build_parser()
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    code = re.compile(r"args\.|getattr|importlib|\bwith_\b|\b[a-z_]+\(|flowmc\.[a-z_]+\.[a-z_]+|__\w+__")
+    problems = []
+    for name, sub in [("flowmc", parser), *subparsers.choices.items()]:
+        text = sub.format_help()
+        problems += [f"{name}: {m.group()!r}" for m in code.finditer(text)]
+        for action in sub._actions:
+            if not isinstance(action, (argparse._HelpAction, argparse._SubParsersAction)) and not action.help:
+                problems.append(f"{name}: {'/'.join(action.option_strings) or action.dest} has no help")
+    assert subparsers.choices.keys() >= {"run", "validate", "nodes", "schema", "serve", "compare"}
+    assert problems == []

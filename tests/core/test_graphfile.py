@@ -92,7 +92,7 @@ def test_unknown_field_is_refused_with_file_and_json_path(tmp_path):
 def test_unknown_schema_version_is_refused(tmp_path):
     path = tmp_path / "future.flowmc.json"
     path.write_text('{"schema_version": 7, "nodes": []}')
-    with pytest.raises(GraphError, match=r"schema_version: unknown schema version 7 \(this flowmc reads 1\)") as info:
+    with pytest.raises(GraphError, match=r"schema_version: unknown schema version 7 \(this flowmc reads 2\)") as info:
         load(path)
     assert str(path) in str(info.value)
     with pytest.raises(GraphError, match="missing or not an integer"):
@@ -107,7 +107,7 @@ def test_migrations_are_applied_in_one_place(monkeypatch):
 
     monkeypatch.setitem(migrations.MIGRATIONS, 0, from_zero)
     graph = loads('{"schema_version": 0, "name": "old"}')
-    assert graph.title == "old" and graph.schema_version == 1
+    assert graph.title == "old" and graph.schema_version == 2  # then 1 -> 2 (bodies, the view section)
 
 
 def test_malformed_json_names_file_line_and_column(tmp_path):
@@ -133,7 +133,7 @@ def test_missing_file_and_wrong_value_types(tmp_path):
 def test_json_schema_is_the_model():
     schema = json_schema()
     assert schema["additionalProperties"] is False
-    assert set(schema["properties"]) == {"schema_version", "title", "description", "nodes", "wires", "interface"}
+    assert set(schema["properties"]) == {"schema_version", "title", "description", "nodes", "wires", "interface", "view"}
     node = schema["$defs"]["Node"]
     assert node["additionalProperties"] is False and set(node["required"]) == {"id", "type"}
     wire = schema["$defs"]["Wire"]

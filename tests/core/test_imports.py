@@ -37,3 +37,25 @@ def test_console_script_and_module_entry_points_agree():
     via_module = subprocess.run([sys.executable, "-m", "flowmc", "schema"], capture_output=True, text=True, timeout=60)
     assert via_script.returncode == via_module.returncode == 0
     assert via_script.stdout == via_module.stdout
+
+
+VALIDATE = """
+import sys
+from flowmc.cli import main
+code = main(["validate", sys.argv[1]])
+heavy = ("scipy", "skimage", "viser", "networkx", "PIL", "serial", "dask", "flowmc.ui", "flowmc.sweep",
+         "flowmc.devices.sim", "flowmc.devices.grbl", "flowmc.devices.linuxcnc", "flowmc.devices.jobs",
+         "flowmc.motion.gcode", "flowmc.nodes.gcode", "flowmc.nodes.basic")
+print(code, sorted({m for m in sys.modules for h in heavy if m == h or m.startswith(h + ".")}))
+"""
+
+
+def test_validate_starts_light(tmp_path):
+    """Cold start (benchmarks/cold_start.py times it): ``flowmc validate`` imports only the node modules
+    of the types the graph uses, and nothing heavy (scipy, scikit-image, viser, networkx, device backends)."""
+    from core_helpers import REPO
+
+    graph = REPO / "graphs" / "thesis_3axis.flowmc.json"
+    proc = subprocess.run([sys.executable, "-c", VALIDATE, str(graph)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == "0 []"

@@ -126,3 +126,19 @@ def test_a_registry_of_only_some_types():
     assert flowmc.run(g.build(), registry=registry).output("s", "result") == 5.0
     g.add("path.polyline", id="p")
     assert [i.code for i in flowmc.validate(g.build(), registry=registry)] == ["unknown-node-type"]
+
+
+def test_the_id_index_of_built_in_modules_matches_what_they_declare():
+    """build_registry defers each built-in node module under the ids its text declares."""
+    import importlib
+    import pkgutil
+
+    import flowmc.nodes
+    from flowmc.plugins import _declared_ids
+    from flowmc.registry import declared_in
+
+    folder = Path(flowmc.nodes.__file__).parent
+    for info in pkgutil.iter_modules(flowmc.nodes.__path__):
+        name = f"flowmc.nodes.{info.name}"
+        importlib.import_module(name)
+        assert sorted(_declared_ids(folder / f"{info.name}.py")) == sorted(c.type_id for c in declared_in(name)), name

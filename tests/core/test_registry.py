@@ -140,3 +140,37 @@ def test_every_node_module_of_the_package_loads_and_every_type_describes_itself(
                      "device.card_output", "machine", "lib.home_all"):
         assert expected in ids
     assert all(d["description"] and "\n" not in d["description"] for d in described)
+
+
+def test_a_deferred_source_loads_on_first_need_and_is_no_change():
+    loads = []
+
+    def source(reg):
+        loads.append("a")
+        reg.add(_make(type_id="test.deferred"), origin="source a")
+        reg.add(_make(type_id="test.unannounced"), origin="source a")
+
+    reg = Registry()
+    reg.defer(source, ["test.deferred"])
+    generation = reg.generation
+    assert loads == []
+    assert reg.lookup("test.deferred").type_id == "test.deferred" and loads == ["a"]
+    assert reg.generation == generation and reg.origin("test.deferred") == "source a"
+    other = Registry()
+    other.defer(source)  # ids not announced: found by loading every pending source
+    assert other.lookup("test.unannounced").type_id == "test.unannounced" and loads == ["a", "a"]
+    broken = Registry()
+    broken.defer(lambda r: r.failures.update({"source b": "ImportError: no"}), ["test.b"])
+    with pytest.raises(GraphError, match="unknown node type 'test.b'"):
+        broken.lookup("test.b")
+    assert "source b: ImportError: no" in broken.unknown_type_hint()
+
+
+def test_adding_loads_earlier_deferred_sources_first_so_they_keep_their_ids():
+    reg = Registry()
+    reg.defer(lambda r: r.add(_make(type_id="test.first"), origin="first"), ["test.first"])
+    clash = type("Clash", (NodeType,), {"type_id": "test.first", "title": "C", "category": "T", "description": "d",
+                                        "run": lambda self, ctx, params: {}})
+    with pytest.raises(TypeError, match="already used"):
+        reg.add(clash)
+    assert reg.origin("test.first") == "first"

@@ -151,3 +151,21 @@ def test_interface_types_and_defaults_are_checked(registry):
         ("interface-type", ("interface", "outputs", "o", "from")):
             "interface output 'o' <- blob.path: interface type Number but node 'blob' output 'path' is Path",
     }
+
+
+def test_generations_are_networkx_topological_generations():
+    import random
+
+    import networkx as nx
+
+    from flowmc.runtime.schedule import generations
+
+    rng = random.Random(7)
+    ids = [f"n{i:03d}" for i in range(300)]
+    edges = sorted({(ids[a], ids[b]) for a, b in ((rng.randrange(299), rng.randrange(300)) for _ in range(600)) if a < b})
+    graph = nx.DiGraph()
+    graph.add_nodes_from(ids)
+    graph.add_edges_from(edges)
+    expected = [sorted(g) for g in nx.topological_generations(graph)]
+    assert generations(ids, edges) == expected
+    assert generations(["a", "b"], [("a", "b"), ("b", "a")]) is None

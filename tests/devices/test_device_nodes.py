@@ -37,8 +37,8 @@ def _pattern_graph(device_params: dict | None = None, machine_params: dict | Non
 
 def test_card_output_runs_the_pattern_and_the_same_graph_twice_gives_the_identical_log():
     graph = _pattern_graph().build()
-    first = flowmc.run(graph)
-    second = flowmc.run(graph)
+    first = flowmc.run(graph, start=True)
+    second = flowmc.run(graph, start=True)
     assert first.ok and second.ok, first.errors + second.errors
     a, b = first.outputs["log"], second.outputs["log"]
     assert isinstance(a, DeviceLog) and a.outcome == "done"
@@ -55,7 +55,7 @@ def test_card_output_runs_the_pattern_and_the_same_graph_twice_gives_the_identic
 
 
 def test_closed_loop_card_output_reports_following_error():
-    result = flowmc.run(_pattern_graph({"closed_loop": True}).build())
+    result = flowmc.run(_pattern_graph({"closed_loop": True}).build(), start=True)
     assert result.ok, result.errors
     log = result.outputs["log"]
     assert 0 < max(log.summary()["max_following_error_mm"]) < 0.05
@@ -63,7 +63,7 @@ def test_closed_loop_card_output_reports_following_error():
 
 def test_preflight_failure_in_card_output_names_the_segment_and_sends_nothing():
     axes = [{"name": "X", "min": -60, "max": 60}, {"name": "Y"}, {"name": "Z", "min": -50, "max": 50}]
-    result = flowmc.run(_pattern_graph(machine_params={"axes": axes}).build())
+    result = flowmc.run(_pattern_graph(machine_params={"axes": axes}).build(), start=True)
     assert not result.ok
     assert result.nodes["card"].status == "failed"
     assert "node 'card': segment 4 (row 4): X = -60.00" in result.nodes["card"].error
@@ -85,7 +85,7 @@ def test_preflight_names_the_table_row_behind_a_spin_up_dwell():
     g.wire(m.machine, plan.machine)
     g.wire(plan.trajectory, check.motion)
     g.wire(m.machine, check.machine)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), start=True)
     path = result.nodes["spindle"].outputs["path"]
     assert path.segments[0].kind == "dwell" and path.segments[0].source == "node spindle: spin-up"
     arc = path.segments[4]
@@ -113,7 +113,7 @@ def test_changes_at_segments_count_from_one_and_a_missing_segment_is_named():
                     changes=[{"at": k, "on": True} for k in at])
         g.wire(i.trajectory, pen.motion)
         g.output("signals", "Signal", pen.signals)
-        return flowmc.run(g.build())
+        return flowmc.run(g.build(), start=True)
 
     result = run_pen([1, 2, 6])
     assert result.ok, result.errors
@@ -132,7 +132,7 @@ def test_preflight_node_reports_per_axis_figures():
     g.wire("i.trajectory", check.motion)
     g.wire("m.machine", check.machine)
     g.output("report", "Table", check.report)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), start=True)
     assert result.ok, result.errors
     table = result.outputs["report"]
     assert isinstance(table, Table) and list(table["axis"]) == ["X", "Y", "Z"]
@@ -155,7 +155,7 @@ def test_home_then_card_output_carries_the_sim_state_on():
     g.wire(home.log, card.after)
     g.output("homed", "Log", home.log)
     g.output("log", "Log", card.log)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), start=True)
     assert result.ok, result.errors
     homed, log = result.outputs["homed"], result.outputs["log"]
     assert homed.events_of("home")[0].axis == "X"
@@ -172,7 +172,7 @@ def test_pwm_and_io_now_nodes():
     g.wire(dio.signals, now.signals)
     g.output("log", "Log", now.log)
     g.output("inputs", "Number", now.inputs)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), start=True)
     assert result.ok, result.errors
     log = result.outputs["log"]
     assert log.changes_of("pwm_freq")[0].value == pytest.approx(20_000.0)

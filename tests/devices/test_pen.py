@@ -160,7 +160,7 @@ def test_io_now_refuses_a_tool_event():
     g = flowmc.GraphBuilder(title="io now")
     now = g.add("device.io_now", id="now")
     g.input("signals", "Signal", now.signals)
-    result = flowmc.run(g.build(), inputs={"signals": Signal([0.0], ["tool"], [0], [1.0])})
+    result = flowmc.run(g.build(), inputs={"signals": Signal([0.0], ["tool"], [0], [1.0])}, start=True)
     assert not result.ok and "a tool (pen) event goes with a program" in result.nodes["now"].error
 
 

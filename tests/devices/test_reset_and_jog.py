@@ -71,7 +71,7 @@ def _home_jog_graph(distance: float = 12.5, axis: str = "X", **jog_params):
 
 def test_jog_node_moves_the_axis_by_the_distance_after_home():
     g, _, _ = _home_jog_graph()
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), start=True)
     assert result.ok, result.errors
     home, jog = result.outputs["home_log"], result.outputs["jog_log"]
     assert home.end_position == pytest.approx([0, 0, 0])
@@ -82,7 +82,7 @@ def test_jog_node_moves_the_axis_by_the_distance_after_home():
     speed = np.abs(np.diff(jog.position[:, 0])) / jog.period
     assert speed.max() == pytest.approx(20.0, rel=0.02)  # at the jog speed, not the axis's vmax
     assert result.nodes["jog"].status == "done"
-    again = flowmc.run(g.build())
+    again = flowmc.run(g.build(), start=True)
     assert again.nodes["jog"].status == "done"  # a device node: run again, never cached
     assert again.outputs["jog_log"].digest() == jog.digest()
 
@@ -95,7 +95,7 @@ def test_a_program_after_the_jog_starts_where_the_jog_left_the_table():
     g.wire(jog.log, card.after)
     g.output("log", "Log", card.log)
     program = line_trajectory((0, -7, 0), (10, -7, 0))
-    result = flowmc.run(g.build(), inputs={"program": program})
+    result = flowmc.run(g.build(), inputs={"program": program}, start=True)
     assert result.ok, result.errors
     log = result.outputs["log"]
     assert not log.events_of("approach")  # the table was already at the program's start
@@ -104,10 +104,10 @@ def test_a_program_after_the_jog_starts_where_the_jog_left_the_table():
 
 def test_jog_node_failures_name_the_axis_or_the_limit():
     g, _, _ = _home_jog_graph(axis="Q")
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), start=True)
     assert result.nodes["jog"].status == "failed" and "no axis 'Q'" in result.nodes["jog"].error
     g, _, _ = _home_jog_graph(distance=500.0)
-    result = flowmc.run(g.build())
+    result = flowmc.run(g.build(), start=True)
     assert result.nodes["jog"].status == "failed"
     assert "the jog of X ended with soft_limit" in result.nodes["jog"].error
 
@@ -129,7 +129,7 @@ def test_card_output_node_drives_the_pen_output_it_is_given():
     g.wire(m.machine, card.machine)
     g.output("log", "Log", card.log)
     g.output("steps", "Steps", pbp.steps)
-    result = flowmc.run(g.build(), inputs={"path": path})
+    result = flowmc.run(g.build(), inputs={"path": path}, start=True)
     assert result.ok, result.errors
     steps, log = result.outputs["steps"], result.outputs["log"]
     rows = np.searchsorted(steps.segment, [1, 4, 5])  # first stroke, the rapid between, second stroke

@@ -19,7 +19,7 @@ EXAMPLES = sorted(GRAPHS.glob("*.flowmc.json"))
 
 
 def run(name: str, **inputs):
-    result = flowmc.run(flowmc.load(GRAPHS / f"{name}.flowmc.json"), inputs=inputs)
+    result = flowmc.run(flowmc.load(GRAPHS / f"{name}.flowmc.json"), inputs=inputs, start=True)
     assert result.ok, result.errors
     return result
 
@@ -113,7 +113,7 @@ def test_teaching_machine_pulse_table_and_grbl_stream():
 def test_teaching_machine_on_a_grbl_board_stops_at_a_failing_line():
     with GrblSimulator(error_at={12: 20}) as sim:
         graph = flowmc.load(GRAPHS / "teaching_machine.flowmc.json")
-        result = flowmc.run(graph, inputs={"device": f"grbl:{sim.port}"})
+        result = flowmc.run(graph, inputs={"device": f"grbl:{sim.port}"}, start=True)
     assert not result.ok
     assert "line 12" in result.nodes["grbl"].error and "error:20" in result.nodes["grbl"].error
 
@@ -151,7 +151,7 @@ def test_xy_plotter_draws_in_all_quadrants_and_lifts_the_pen():
 
 
 def test_xy_plotter_refuses_a_drawing_past_the_table_edge_before_motion():
-    result = flowmc.run(flowmc.load(GRAPHS / "xy_plotter.flowmc.json"), inputs={"picture_width_mm": 400.0})
+    result = flowmc.run(flowmc.load(GRAPHS / "xy_plotter.flowmc.json"), inputs={"picture_width_mm": 400.0}, start=True)
     assert not result.ok
     error = result.nodes["card"].error
     assert "segment" in error and "soft limit" in error and "X" in error
@@ -159,3 +159,22 @@ def test_xy_plotter_refuses_a_drawing_past_the_table_edge_before_motion():
     assert re.match(r"node 'card': segment [1-9]\d* \(house\.png contour [1-9]\d*\): X = [\d.]+ mm beyond soft limit max",
                     error), error
     assert "log" not in result.nodes["card"].outputs  # nothing was sent
+
+
+def test_svg_plotter_draws_the_svg_with_two_pens_within_the_table():
+    result = run("svg_plotter")
+    steps = result.outputs["steps"]
+    pos = steps.positions()
+    assert np.abs(steps.steps).sum(axis=1).max() == 1  # point-by-point
+    log = result.outputs["log"]
+    assert log.outcome == "done"
+    np.testing.assert_allclose(log.position[-1], pos[-1], atol=1e-9)
+    # the 80 x 50 mm drawing centred on the table (frame corners at +-38, +-23), to a step
+    np.testing.assert_allclose(pos.min(axis=0), [-38, -23], atol=0.011)
+    np.testing.assert_allclose(pos.max(axis=0), [38, 23], atol=0.011)
+    path = result.nodes["drawing"].outputs["path"]
+    events = path.events()
+    assert [(e.kind, e.tool) for _, e in events] == [("tool_change", 2)]  # black pen, then the red one
+    assert {s.kind for s in path} <= {"line", "arc", "dwell"}  # Béziers and ellipses as arcs
+    pen = [c.value for c in log.changes if c.kind == "dout" and c.channel == 1]
+    assert len(pen) >= 2 * 9 - 1 and all(a != b for a, b in zip(pen, pen[1:]))  # down and up for the 9 strokes

@@ -179,6 +179,9 @@ G85 X30 Z-2 R1
 G86 X35 Z-2 R1 P0.2
 G89 X40 Z-2 R1 P0.3
 G84 X45 Z-2 R1
+M4
+G74 X47 Z-2 R1
+M3
 G87 X50 Y10 Z-4 R1 I1 J0 K-2
 G88 X55 Z-2 R1 P0.1
 G80
@@ -242,6 +245,64 @@ G0 X45
 M2
 """
 
+LATHE = """\
+G18 G21 G90 F200 S800 M3
+O100 SUB
+  G0 X2 Z1
+  G1 Z0 C0.5
+  X6 A1
+  #<k> = 0
+  O101 WHILE [#<k> LT 2]
+    G1 X[8 + #<k> * 2] Z[-5 - #<k> * 4]
+    #<k> = [#<k> + 1]
+  O101 ENDWHILE
+  G2 X14 Z-18 R6
+  G1 Z-24
+  G3 X18 Z-28 I0 K-4
+  G1 X22
+O100 ENDSUB
+O200 SUB
+  G0 X22 Z-30
+  G1 X16 Z-30
+  G1 X16 Z-20 A1.5
+  U-8 Z-12
+  W8 C1
+  X2 Z0
+O200 ENDSUB
+G0 X30 Z5
+G71 Q100 X24 Z3 D0.4 I1.5 R0.5
+G71.1 Q100 X24 Z3 D0.2 I1 R0.3
+G71.2 Q100 X24 Z3 D0.2 I1 R0.3
+G70 Q100 X24 Z3 D0.4 E0.1 P3
+G0 X30 Z5
+G72 Q200 X24 Z3 D0.3 I1.2 R0.4
+G72.1 Q200 X24 Z3 D0.3 I1.2
+G72.2 Q200 X24 Z3 D0.3 I1.2
+G71 Q100 X24 Z3 D0.1 I2
+G70 Q200 X24 Z3 P1
+X30 Z6
+G90.1
+O300 SUB
+  G1 X4 Z0
+  G3 X8 Z-4 I4 K-4
+  G1 Z-10
+  X20
+O300 ENDSUB
+G71 Q300 X22 Z2 D0.2 I1
+O400 SUB (a pocket: G71 cuts it, G71.1 leaves it, G71.2 cuts only it)
+  G1 X2 Z0
+  X6 Z-4
+  X3 Z-8
+  X9 Z-10
+O400 ENDSUB
+G0 X12 Z2
+G71 Q400 X10 Z2 D0.2 I1
+G71.1 Q400 X10 Z2 D0.2 I1
+G71.2 Q400 X10 Z2 D0.2 I1
+G0 X30 Z10
+M2
+"""
+
 
 @pytest.mark.parametrize("name, text, var, tol, lines", [
     ("parameters.ngc", PARAMETERS, False, MM_TOL, True),
@@ -251,7 +312,10 @@ M2
     ("cycles.ngc", CYCLES, False, MM_TOL, True),
     ("comp.ngc", COMP, False, INCH_TOL, False),  # rs274 names a held move by the line that released it
     ("motions.ngc", MOTIONS, False, MM_TOL, True),
-])
+    # rs274 names a lathe cycle's moves by the profile's last line, flowmc by the cycle's line.
+    ("lathe.ngc", LATHE, False, MM_TOL, False),
+    ("lathe_inch.ngc", LATHE.replace("G21", "G20"), False, INCH_TOL, False),
+], ids=lambda v: v if isinstance(v, str) and v.endswith(".ngc") else "")
 def test_feature_program_agrees_with_rs274(name, text, var, tol, lines):
     result, ref = check(text, name, var=var, tol=tol, lines=lines)
     assert len(ref) >= 7
@@ -280,6 +344,9 @@ def test_the_parameter_file_comes_back_with_what_the_program_changed():
 
 # ------------------------------------------------------------------ refused as rs274 refuses them
 
+PROFILE = "G18 G21 F100\nO1 SUB\nG1 X2 Z0\nX6 Z-4\nZ-8\nX4 Z-12\nO1 ENDSUB\n"
+
+
 @pytest.mark.parametrize("text, line, rs274_says, ours", [
     ("G20 F10 T1 M6\nG41 G1 X0.1\nM2\n", 2, "entry move is not greater", "entry move"),
     ("G20 F10 T1 M6\nG0 X-1\nG41 G1 X0 Y0\nG1 X2\nG1 Y0.1\nG1 X0\nG40 G1 X-1\nM2\n", 6, "cannot be reached",
@@ -291,10 +358,16 @@ def test_the_parameter_file_comes_back_with_what_the_program_changed():
     ("G21 F10\nG81 X1 Y1 Z3 R1\nM2\n", 2, "R less than Z", "below the bottom of the hole"),
     ("G21 F10\nG83 X1 Y1 Z-3 R1\nM2\n", 2, "Q word missing", "needs a Q word"),
     ("G21 F10\nG86 X1 Z-3 R1 P1\nM2\n", 2, "Spindle not turning", "spindle is not turning"),
+    ("G21 F10 S100 M3\nG74 X1 Z-3 R1\nM2\n", 2, "Spindle turning clockwise in G74", "left-hand tapping needs M4"),
     ("G21 F10\no1 call\nM2\n", 2, "", "subroutine o1 is not defined"),
     ("G21\n#1 = [1 / 0]\nM2\n", 2, "divide by zero", "division by zero"),
     ("G21\nG1 X#<nope>\nM2\n", 2, "not defined", "#<nope> is not defined"),
     ("G21\nG38.2 Z-1 F10\nM2\n", 2, "", "probing (G38.x) is not supported"),
+    (PROFILE + "G71 X10 Z2 D0.2 I1\nM2\n", 8, "requires a Q word", "G71 needs a Q word"),
+    (PROFILE.replace("G18", "G17") + "G72 Q1 X10 Z2 D0.2 I1\nM2\n", 8, "only be used in XZ plane",
+     "G72 can only be used in the XZ plane (G18)"),
+    (PROFILE + "G41.1 D1\nG71.1 Q1 X10 Z2 D0.2 I1\nM2\n", 9, "cannot be used with cutter compensation",
+     "G71.1 cannot be used with cutter compensation on"),
 ])
 def test_programs_rs274_refuses_we_refuse_on_the_same_line(text, line, rs274_says, ours):
     if rs274_says:
@@ -305,6 +378,24 @@ def test_programs_rs274_refuses_we_refuse_on_the_same_line(text, line, rs274_say
     with pytest.raises(GcodeError) as err:
         interpret(text, "bad.ngc", options())
     assert err.value.where == f"bad.ngc:{line}" and ours in err.value.message
+
+
+def test_a_profile_lathe_cycles_cannot_cut_is_refused_on_the_cycles_line():
+    text = PROFILE.replace("X4 Z-12", "X8 Z-2") + "G0 X10 Z2\nG71 Q1 X10 Z2 D0.2 I1\nM2\n"
+    with pytest.raises(GcodeError, match="Not monotonic"):
+        run_rs274(text, name="bad.ngc")
+    with pytest.raises(GcodeError) as err:
+        interpret(text, "bad.ngc", options())
+    assert err.value.where == "bad.ngc:9" and "G71 cannot cut this profile: Not monotonic" in err.value.message
+
+
+def test_a_lathe_cycle_that_linuxcnc_would_never_finish_stops_with_an_error():
+    # An arc whose end is off its circle (G7x does not check it): rs274 loops here, emitting moves forever.
+    text = ("G18 G21 F100 G90.1\nO3 SUB\nG1 X4 Z0\nG3 X12 Z-4 I4 K-4\nG1 Z-10\nX20\nO3 ENDSUB\n"
+            "G0 X22 Z2\nG71 Q3 X22 Z2 D0.2 I1\nM2\n")
+    with pytest.raises(GcodeError) as err:
+        interpret(text, "loop.ngc", options())
+    assert err.value.where == "loop.ngc:9" and "does not finish" in err.value.message
 
 
 @pytest.mark.parametrize("offset, accepted", [(0.0129, True), (0.014, True), (0.0145, False)])

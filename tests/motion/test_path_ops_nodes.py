@@ -131,6 +131,40 @@ def test_tool_offset_of_an_ellipse_fails_naming_the_row():
     assert result.nodes["off"].error.startswith("node 'off': segment 2 (row 2): tool-radius offset handles lines")
 
 
+NOTCHED = [(0, 0, 0), (20, 0, 0), (20, 10, 0), (11.5, 10, 0), (11.5, 3, 0), (8.5, 3, 0), (8.5, 10, 0), (0, 10, 0)]
+
+
+@pytest.mark.parametrize("gouge", ["refuse", "trim"])
+def test_tool_offset_node_refuses_or_trims_a_gouge(gouge):
+    g = flowmc.GraphBuilder()
+    part = g.add("path.polyline", id="part", points=NOTCHED, closed=True)
+    off = g.add("path.tool_offset", id="off", side="left", radius=2.0, gouge=gouge)
+    g.wire(part.path, off.path)
+    g.output("path", "Path", off.path)
+    result = flowmc.run(g.build())
+    if gouge == "refuse":
+        assert not result.ok and "would cut into segment 5" in result.nodes["off"].error
+    else:
+        assert result.ok, result.errors
+        assert any(s.rapid and not s.tool_down for s in result.outputs["path"])
+
+
+def test_pocket_node_clears_a_square_in_rings():
+    g = flowmc.GraphBuilder()
+    square = g.add("path.polyline", id="sq", points=[(0, 0, 0), (20, 0, 0), (20, 20, 0), (0, 20, 0)], closed=True)
+    pocket = g.add("path.pocket", id="pocket", radius=2.0, stepover=1.5, feed=12.0)
+    g.wire(square.path, pocket.path)
+    g.output("path", "Path", pocket.path)
+    result = flowmc.run(g.build())
+    assert result.ok, result.errors
+    path = result.outputs["path"]
+    box = path.summary()
+    assert box["bbox_min"][:2] == pytest.approx([2, 2]) and box["bbox_max"][:2] == pytest.approx([18, 18])
+    rings = {s.source for s in path if not s.rapid}
+    assert "pocket ring 1 (finish)" in rings and len(rings) == math.ceil((10 - 2) / 1.5)
+    assert {s.feed for s in path if not s.rapid} == {12.0}
+
+
 # ------------------------------------------------------------------ transforms and join
 
 def test_translate_rotate_scale_mirror_chain():

@@ -317,9 +317,9 @@ def run_case(case: Case, folder: Path, main: Callable[[list[str]], int]) -> Verd
 
 def run_batch(kind: str, start: int, count: int, seed: int, folder: Path) -> list[Verdict]:
     """Cases ``start`` .. ``start + count`` of one kind, in this process."""
-    from flowmc.cli import main
-
     import resource
+
+    from flowmc.cli import main
 
     prepare(folder)
     out = []

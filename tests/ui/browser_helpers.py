@@ -49,6 +49,16 @@ _PROJECT = """([x, y]) => { const m = window.__viserMutable; const o = m.nodeRef
   const r = m.canvas.getBoundingClientRect(); return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height]; }"""
 
 
+_STILL = """() => new Promise(resolve => {
+  const m = window.__viserMutable, key = () => { const r = m.canvas.getBoundingClientRect();
+    return JSON.stringify([Math.round(r.left), Math.round(r.width), Math.round(r.height), m.camera.position.toArray().map(v => v.toFixed(4))]); };
+  let last = key(), same = 0;
+  const check = () => { const now = key(); same = now === last ? same + 1 : 0; last = now;
+    if (same >= 6) resolve(true); else setTimeout(check, 60); };
+  setTimeout(check, 60);
+})"""
+
+
 class EditorPage:
     """One browser tab on an Editor running in this process."""
 
@@ -60,20 +70,27 @@ class EditorPage:
         """Load the page; returns seconds until every node is in the scene and the camera is locked."""
         start = time.perf_counter()
         self.page.goto(self.editor.url)
-        self.wait_nodes(len(self.editor.state.graph.nodes), timeout)
+        self.wait_nodes(len(self.editor.canvas.boxes), timeout)
         self.page.wait_for_function("window.__flowmcCameraLocked === true", timeout=timeout * 1000)
         return time.perf_counter() - start
 
+    def settled(self, timeout: float = 15.0) -> None:
+        """Wait until the page's layout and the camera stop moving (panels dock and the view is framed
+        again while the page settles): clicks aimed from the scene's geometry then land where meant."""
+        self.page.wait_for_function(_STILL, timeout=timeout * 1000)
+
     def wait_nodes(self, count: int, timeout: float = 30.0) -> None:
+        """Wait until the scene holds ``count`` node bodies (nodes and interface terminals)."""
         self.page.wait_for_function(f"({_INSTANCES})('/canvas/body') === {count}", timeout=timeout * 1000)
 
     def dismiss_toasts(self) -> None:
-        """Close the 'Software WebGL' notice (it covers the top left of the canvas)."""
+        """Close the 'Software WebGL' notice (it covers the top left of the canvas), then wait for the page to settle."""
         for frame in self.page.frames:
             toast = frame.locator(".mantine-Notification-root", has_text="Software WebGL")
             for k in range(toast.count()):
                 with contextlib.suppress(Exception):
                     toast.nth(k).locator("button").first.click(timeout=2000)
+        self.settled()
 
     def field(self, label: str) -> Any:
         """The input beside a side-panel label (viser puts them in one row; its label's ``for`` misses)."""

@@ -46,12 +46,14 @@ def run(editor):
 
 def test_opens_the_graph_and_runs_it_with_status_colours(editor):
     assert "example.flowmc.json" in unescape_md(editor.header.content) and "●" not in unescape_md(editor.header.content)
-    assert len(editor.canvas.boxes) == 4 and len(editor.canvas.curves) == 3
+    ids = [b.node_id for b in editor.canvas.boxes]
+    assert sorted(ids[:4]) == ["both", "edge", "shift", "table"] and ids[4] == "@out:path"  # and the output's terminal
+    assert len(editor.canvas.curves) == 4 and ("both.path", "@out:path") in editor.canvas.curves
     result = run(editor)
     assert result.ok
     assert {n: s[0] for n, s in editor.canvas.status.items()} == dict.fromkeys(["table", "edge", "shift", "both"], "done")
     body = editor.canvas._handles["body"].batched_colors
-    assert len({tuple(c) for c in body}) == 1  # every node the 'done' colour
+    assert len({tuple(c) for c in body[:4]}) == 1  # every node the 'done' colour (the terminal is not a node)
     assert run(editor).cached == result.order  # the same runtime: everything cached
     assert {s[0] for s in editor.canvas.status.values()} == {"cached"}
     assert "cached" in editor.messages[-1][1]
@@ -103,20 +105,43 @@ def test_invalid_param_shows_at_the_field_and_stops_the_run(editor):
     assert run(editor).ok
 
 
-def test_segment_table_rows_are_an_editable_table(editor):
+def test_segment_table_rows_are_a_grid_of_cells(editor):
     click(editor, "table")
-    fields = editor.inspector.fields
-    fields[("rows", 1, "radius")].value = -2.0
-    assert editor.inspector.errors[("rows", 1, "radius")].visible
-    fields[("rows", 1, "radius")].value = 12.0
-    fields[("rows", "add")].value = "line"
+    ins = editor.inspector
+    grid_id = "table/rows"
+    html = ins.fields[("rows",)].content
+    for title in ("type", "end X (mm)", "radius (mm)", "start angle (deg)", "tool down"):
+        assert f">{title}<" in html  # readable column titles with units
+    assert ins.grid_event(grid_id, {"op": "set", "row": 1, "col": "radius", "value": "-2"}) is None
+    problem = unescape_md(ins.errors[("rows",)].content)
+    assert "row 2, radius: " in problem and "greater than 0" in problem and ins.errors[("rows",)].visible
+    assert "#e03131" in ins.fields[("rows",)].content  # the bad cell is outlined
+    ins.grid_event(grid_id, {"op": "set", "row": 1, "col": "radius", "value": "12"})
+    assert not ins.errors[("rows",)].visible
+    ins.fields[("rows", "add")].value = "line"
     rows = editor.state.node("table").params["rows"]
     assert len(rows) == 5 and rows[-1]["type"] == "line"
-    editor.inspector.fields[("rows", 4, "end")].value = (5.0, 6.0, 0.0)
-    assert editor.state.node("table").params["rows"][4]["end"] == [5.0, 6.0, 0.0]
-    editor.inspector.fields[("rows", 4, "ops")].value = "Remove"
+    ins.grid_event(grid_id, {"op": "set", "row": 4, "col": "end.1", "value": "6"})
+    assert editor.state.node("table").params["rows"][4]["end"] == [0.0, 6.0, 0.0]
+    assert "not a number" in ins.grid_event(grid_id, {"op": "set", "row": 4, "col": "end.0", "value": "x"})
+    ins.grid_event(grid_id, {"op": "set", "row": 4, "col": "type", "value": "arc"})  # the row's kind
+    assert set(editor.state.node("table").params["rows"][4]) >= {"type", "direction", "radius"}
+    ins.grid_event(grid_id, {"op": "delete", "row": 4})
     assert len(editor.state.node("table").params["rows"]) == 4
     assert editor.state.node("table").params["rows"][1]["radius"] == 12.0
+    assert "4 rows" in unescape_md(ins.fields[("rows", "count")].content)
+
+
+def test_twenty_rows_paste_from_tab_separated_text(editor):
+    click(editor, "table")
+    lines = ["type\tend X (mm)\tend Y (mm)\tend Z (mm)"] + [f"line\t{10 * k}\t{5 * k}\t0" for k in range(19)]
+    lines.append("arc\t\t\t")  # an arc: no end point; its own cells are further right
+    assert editor.inspector.grid_event("table/rows", {"op": "paste", "row": 0, "col": "type", "text": "\n".join(lines)}) is None
+    rows = editor.state.node("table").params["rows"]
+    assert len(rows) == 20  # the header line was skipped; rows were added as needed
+    assert rows[7] == {"type": "line", "end": [70.0, 35.0, 0.0]} and rows[19]["type"] == "arc"
+    assert editor.inspector.grid_event("table/rows", {"op": "paste", "row": 19, "col": "radius", "text": "5\t0\t90"}) is None
+    assert {"radius": 5.0, "start_angle": 0.0, "end_angle": 90.0}.items() <= editor.state.node("table").params["rows"][19].items()
 
 
 def test_points_and_optional_numbers_are_text_fields(editor):
@@ -308,8 +333,8 @@ def test_failed_node_shows_its_error_on_the_canvas_and_in_the_list(tmp_path):
         result = run(ed)
         assert not result.ok
         assert {k: v[0] for k, v in ed.canvas.status.items()} == {"n": "done", "d": "failed", "c": "skipped"}
-        labels = {k: v[1] for k, v in ed.canvas._labels.items()}
-        assert labels["d/status"].startswith("✖") and "division by zero" in labels["d/status"]
+        labels = {k: v[0] for k, v in ed.canvas.texts.wanted.items()}
+        assert labels["d/status"] == "failed: see Problems"  # the error's text is in the list, not over the canvas
         assert labels["n/status"].startswith("done · ") and labels["n/status"].endswith(" ms")
         assert labels["c/status"] == "skipped"
         assert "1 node failed" in unescape_md(ed.problems.summary.content)

@@ -14,7 +14,7 @@ from flowmc.plugins import default_registry
 from flowmc.ui import layout
 from flowmc.ui.palette import palette_items, search
 from flowmc.ui.params import field_errors
-from flowmc.ui.ports import NodePorts, PortInfo
+from flowmc.ui.ports import PortInfo
 from flowmc.ui.state import UNSET, EditorState
 
 
@@ -289,11 +289,15 @@ def test_palette_lists_types_library_graphs_and_graph_files(tmp_path):
 
 # ---------------------------------------------------------------- layout
 
-def test_hit_testing_prefers_ports_then_nodes_then_wires():
+def _box(node_id, pos, ins=(), outs=(), title="node"):
+    return layout.node_box(node_id, pos, [(p, p.name) for p in ins], [(p, p.name) for p in outs], title)
+
+
+def test_hit_testing_prefers_ports_then_nodes_then_notes_then_wires():
     ins = (PortInfo("path", "in", ("Path",)), PortInfo("dx", "in", ("Number",), param=True))
     outs = (PortInfo("path", "out", ("Path",)),)
-    a = layout.node_box("a", (0, 0), NodePorts(ins, outs))
-    b = layout.node_box("b", (500, 0), NodePorts(ins, outs))
+    a = _box("a", (0, 0), ins, outs)
+    b = _box("b", (500, 0), ins, outs)
     spot_out, spot_in = a.port("out", "path"), b.port("in", "path")
     curve = layout.wire_points((spot_out.x, spot_out.y), (spot_in.x, spot_in.y))
     wires = {("a.path", "b.path"): curve}
@@ -304,6 +308,10 @@ def test_hit_testing_prefers_ports_then_nodes_then_wires():
     mid = curve[len(curve) // 2]
     assert layout.hit([a, b], wires, mid[0], mid[1] + 0.03).wire == ("a.path", "b.path")
     assert layout.hit([a, b], wires, mid[0], mid[1] + 1.0) is None
+    comment = layout.NoteBox("#c", "comment", -1.0, 1.0, 9.0, 4.0, "around")
+    assert layout.hit([a, b], wires, *a.centre, notes=[comment]) == layout.Hit("node", "a")  # nodes sit above
+    assert layout.hit([a, b], wires, -0.5, 0.9, notes=[comment]) == layout.Hit("note", "#c")  # its title strip
+    assert layout.hit([a, b], wires, -0.5, -2.0, notes=[comment]) is None  # its body lets clicks through
 
 
 def test_ray_meets_the_canvas_plane():
@@ -314,25 +322,34 @@ def test_ray_meets_the_canvas_plane():
     assert layout.ray_to_plane((0.0, 0.0, 10.0), (0.0, 0.0, 1.0)) is None
 
 
-def test_node_box_grows_with_ports_and_world_flips_y():
-    few = layout.node_box("a", (100, 50), NodePorts((), (PortInfo("v", "out", ("Number",)),)))
-    many = layout.node_box("b", (100, 50), NodePorts(tuple(PortInfo(f"i{k}", "in", ("Number",)) for k in range(5)), ()))
+def test_node_box_grows_with_ports_and_text_and_world_flips_y():
+    few = _box("a", (100, 50), outs=(PortInfo("v", "out", ("Number",)),))
+    many = _box("b", (100, 50), ins=tuple(PortInfo(f"i{k}", "in", ("Number",)) for k in range(5)))
     assert many.h > few.h and (few.x, few.y) == (1.0, -0.5)
+    assert few.w == layout.MIN_W * layout.SCALE  # a short title: the narrowest node
+    wide = _box("c", (0, 0), title="plan · Look-ahead planner")
+    assert wide.w > few.w and wide.title == wide.full_title and not wide.elided
+    long = _box("d", (0, 0), title="spindle · " + "Spindle on and wait for speed " * 3)
+    assert long.w == layout.MAX_W * layout.SCALE and long.elided and long.title.endswith("…")
+    assert layout.text_width(long.title, layout.TITLE_FONT) <= layout.MAX_W - 2 * layout.PAD
+    labels = _box("e", (0, 0), ins=(PortInfo("tolerance_when_blending", "in", ("Number",)),),
+                  outs=(PortInfo("cycle_time_seconds", "out", ("Number",)),))
+    assert labels.w * 100 >= layout.text_width("tolerance_when_blending", layout.PORT_FONT) + layout.text_width(
+        "cycle_time_seconds", layout.PORT_FONT)  # the labels of a row fit side by side
     assert layout.to_canvas(*layout.to_world((123.0, 45.0))) == pytest.approx((123.0, 45.0))
 
 
 def test_new_nodes_go_to_a_free_spot_near_the_middle():
-    from flowmc.ui.panels import free_spot
+    from flowmc.ui.arrange import Rect, free_spot
 
-    ports = NodePorts(tuple(PortInfo(f"i{k}", "in", ("Number",)) for k in range(3)), ())
-    boxes = [layout.node_box("a", (0, 0), ports), layout.node_box("b", (260, 0), ports)]
-    for _ in range(4):
-        x, y = free_spot(boxes, (115.0, 60.0))
-        new = layout.node_box(f"n{len(boxes)}", (x, y), ports)
-        assert all(new.x + new.w <= b.x or b.x + b.w <= new.x or new.y - new.h >= b.y or b.y - b.h >= new.y for b in boxes)
-        assert abs(x) < 800 and abs(y) < 800
-        boxes.append(new)
-    assert free_spot([], (100.0, 70.0)) == (0.0, 0.0)  # a 200 x 140 spot centred there
+    taken = [Rect(0, 0, 200, 120), Rect(260, 0, 200, 120)]
+    for _ in range(6):
+        x, y = free_spot(taken, (180.0, 90.0), (230.0, 60.0))
+        new = Rect(x, y, 180, 90)
+        assert not any(new.overlaps(t, 29.0) for t in taken)
+        assert abs(x - 140) < 600 and abs(y - 15) < 600
+        taken.append(new)
+    assert free_spot([], (100.0, 60.0), (50.0, 30.0)) == (0.0, 0.0)  # nothing in the way: centred on the point
 
 
 def test_text_fields_parse_what_they_hold():

@@ -48,8 +48,12 @@ def test_browser_renders_the_trajectory(tmp_path):
                                        timeout=30_000)
                 page.wait_for_function("window.__viserMutable?.nodeRefFromName['/machine/travel'] != null",
                                        timeout=10_000)
-                page.wait_for_timeout(1000)  # a few frames for the lines to be drawn
-                png = page.screenshot(path=str(tmp_path / "view3d.png"))  # kept for a look when it fails
+                for _ in range(20):  # a few frames for the lines to be drawn (more on a busy machine)
+                    page.wait_for_timeout(500)
+                    png = page.screenshot(path=str(tmp_path / "view3d.png"))  # kept for a look when it fails
+                    shot = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+                    if _reddish(shot[:, : shot.shape[1] // 2]).sum() > 200:
+                        break
             finally:
                 browser.close()
     finally:

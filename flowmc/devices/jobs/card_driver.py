@@ -15,9 +15,12 @@ from flowmc.errors import DeviceError, LimitError
 __all__ = ["InstantDriver", "stop_message"]
 
 
-def stop_message(log: DeviceLog) -> str:
+def stop_message(job, log: DeviceLog) -> str:
+    """``the jog of X ended with soft_limit: X stopped at its soft limit max 200 mm``."""
     what = [e.message for e in log.events if e.kind in ("limit", "soft_limit", "estop", "home_failed", "error")]
-    return f"the device stopped ({log.outcome})" + (": " + "; ".join(what) if what else "")
+    name = {"home": "homing", "jog": f"the jog of {job.args[0]}" if job.args else "the jog",
+            "io": "setting outputs", "program": "the program"}[job.operation]
+    return f"{name} ended with {log.outcome}" + (": " + "; ".join(what) if what else "")
 
 
 class InstantDriver:
@@ -65,7 +68,7 @@ class InstantDriver:
         runner.emit("tick", commanded=end, actual=end, progress=1.0, time_left=0.0, t=float(log.duration),
                     outputs=self.outputs())
         if log.outcome != "done":
-            err = DeviceError(stop_message(log), where=job.name or job.device)
+            err = DeviceError(stop_message(job, log), where=job.device)
             err.log = log
             raise err
         return log

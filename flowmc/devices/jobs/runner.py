@@ -253,6 +253,8 @@ class JobRunner:
                 with open_device(self.job.device, self.job.machine, options) as card:
                     driver = driver_for(self, card)
                     self.log = driver.run()
+                if self.state not in FINAL:
+                    self.set_state("done", self.message or "done")
         except FlowmcError as err:
             self.log = getattr(err, "log", None) or self.log
             self.message = str(err)
@@ -263,8 +265,6 @@ class JobRunner:
             if self.state in ACTIVE or self.state == "queued":
                 self.set_state("faulted", self.message or "the job ended unexpectedly")
             self._finished.set()
-        if self.state not in FINAL:
-            self.set_state("done", self.message or "done")
         return self.log
 
 

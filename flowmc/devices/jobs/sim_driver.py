@@ -335,6 +335,6 @@ class SimStream:
         events = self.events + [Event("safe", card.clock, "", f"outputs left safe: {job.safe.describe()}")]
         log = self.stream.log(None, events)
         self._tick()
-        err = DeviceError(message, where=job.name or job.device)
+        err = DeviceError(message, where=job.device)
         err.log = log
         raise err

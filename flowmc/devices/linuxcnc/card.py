@@ -157,6 +157,15 @@ class LinuxCNCCard(MotionCard):
     def run(self, motion: Trajectory | Steps, signals: Signal | None = None, *, check: bool = True) -> DeviceLog:
         if check:
             self.check(motion, signals)
+        return self.run_gcode(self._program(motion, signals), name="trajectory.ngc")
+
+    def check_program(self, motion: Trajectory | Steps, signals: Signal | None = None):
+        report = self.check(motion, signals)
+        self._program(motion, signals)  # what LinuxCNC cannot take is refused here
+        return report
+
+    def _program(self, motion: Trajectory | Steps, signals: Signal | None) -> str:
+        """The program as G-code for LinuxCNC (G64 P tolerance, signals as M-codes)."""
         if isinstance(motion, Steps):
             if motion.tick <= 0:
                 raise DeviceError("an untimed step stream has no speeds for LinuxCNC; give a trajectory "
@@ -168,7 +177,7 @@ class LinuxCNCCard(MotionCard):
         if missing:
             raise DeviceError(f"program axes {missing} are not machine axes {self.machine.names}", where="linuxcnc")
         merged = motion.signals.merged(signals) if signals is not None else motion.signals
-        return self.run_gcode(trajectory_gcode(positions, axes, period, merged, self.tolerance), name="trajectory.ngc")
+        return trajectory_gcode(positions, axes, period, merged, self.tolerance)
 
     def home(self, axes: tuple[str, ...] | None = None, method: str = "switch") -> DeviceLog:
         """LinuxCNC homes in place (HOME_SEARCH_VEL = 0): the named axes become 0 where they stand."""

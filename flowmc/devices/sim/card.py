@@ -348,6 +348,12 @@ class SimCard(MotionCard):
         piece.changes += self._apply_signals(sig, self._outputs, piece.t0, last, program_dt)
         return self._log()
 
+    def check_program(self, motion, signals: Signal | None = None):
+        report = self.check(motion, signals)
+        pos, _seg, _T, tick = self.program_positions(motion)
+        self.checked_signals(motion, signals, tick, len(pos))
+        return report
+
     def checked_signals(self, motion, signals: Signal | None, tick: float, rows: int) -> Signal:
         """The program's signals in card seconds, all checked against the outputs before anything moves;
         lifts the tool first when the program uses it and it is down (before any approach move too)."""

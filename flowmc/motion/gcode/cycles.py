@@ -6,8 +6,8 @@ sticky while the same cycle continues. The "initial level" is where the hole axi
 first block of a run of cycles started; G98 retracts to it (when it is above R), G99 to R. Before
 the first hole, a hole axis below R rapids up to R. In G91, X/Y (and R, from the initial level) are
 increments and Z counts from R; L repeats step by the X/Y increment. G83 and G73 back off by
-0.254 mm (0.010 inch) before each new peck; G84 reverses the spindle at the bottom; G86, G87 and
-G88 stop it (G88 then waits for the operator: a pause event) and start it again.
+0.254 mm (0.010 inch) before each new peck; G84 and G74 (left-hand) reverse the spindle at the bottom;
+G86, G87 and G88 stop it (G88 then waits for the operator: a pause event) and start it again.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from flowmc.motion.path import PLANES, PathEvent
 __all__ = ["run_cycle"]
 
 _RAPID_DELTA_MM = 0.010 * 25.4
-_NAME = {730: "G73", 810: "G81", 820: "G82", 830: "G83", 840: "G84", 850: "G85", 860: "G86", 870: "G87", 880: "G88",
+_NAME = {730: "G73", 740: "G74", 810: "G81", 820: "G82", 830: "G83", 840: "G84", 850: "G85", 860: "G86", 870: "G87", 880: "G88",
          890: "G89"}
 
 
@@ -125,7 +125,7 @@ def run_cycle(interp, motion: int, w: dict, src, i: int) -> None:
         p = sticky("P", "p", "the dwell in seconds")
         if p < 0:
             raise InterpError(f"{name} dwell time (P) must be >= 0")
-    elif motion == 840:
+    elif motion in (740, 840):
         p = w.get("P", cycle.get("p", 0.0))
         cycle["p"] = p
     if motion in (730, 830):
@@ -133,10 +133,12 @@ def run_cycle(interp, motion: int, w: dict, src, i: int) -> None:
         if q <= 0:
             raise InterpError(f"{name} peck depth (Q) must be > 0")
     direction = interp.spindle_dir
-    if motion in (840, 860, 870, 880) and direction == 0:
+    if motion in (740, 840, 860, 870, 880) and direction == 0:
         raise InterpError(f"the spindle is not turning in {name}: start it with M3 or M4 first")
     if motion == 840 and direction < 0:
         raise InterpError("the spindle turns counter-clockwise in G84 (right-hand tapping needs M3)")
+    if motion == 740 and direction > 0:
+        raise InterpError("the spindle turns clockwise in G74 (left-hand tapping needs M4)")
     if motion == 870:
         ci = sticky("I", "i", "the X offset")
         cj = sticky("J", "j", "the Y offset")
@@ -175,7 +177,7 @@ def run_cycle(interp, motion: int, w: dict, src, i: int) -> None:
                 depth -= q
             feed(aa, bb, cc)
             traverse(aa, bb, clear)
-        elif motion == 840:
+        elif motion in (740, 840):
             feed(aa, bb, cc)
             interp.spindle_dir = -direction
             dwell(p)

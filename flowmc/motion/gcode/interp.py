@@ -29,6 +29,7 @@ from flowmc.motion.gcode.canon import Canon
 from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.gcode.expr import EvalError, compile_value, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
+from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
 from flowmc.motion.gcode.params import _COMPUTED, Parameters
 from flowmc.motion.gcode.program import Source, read_program_file, subroutine_file
 from flowmc.motion.gcode.tools import Tool, ToolTable
@@ -101,6 +102,7 @@ class Interpreter:
     """Runs one program. ``run(text, name)`` -> the Canon (columns of segments)."""
 
     def __init__(self, options: GcodeOptions):
+        self.max_blocks = options.max_blocks or 10 * budget.cap("segments")
         self.options = options
         self.tools = options.tool_table or ToolTable()
         self.machine_mm = float(options.machine_units_mm)
@@ -288,7 +290,7 @@ class Interpreter:
 
     def _loop(self) -> None:
         max_segments = self.options.max_segments or budget.cap("segments")
-        max_blocks = self.options.max_blocks or 10 * budget.cap("segments")
+        self.max_blocks = self.options.max_blocks or 10 * budget.cap("segments")
         block_delete = self.options.block_delete
         canon = self.canon
         main = self.sources[0]
@@ -335,11 +337,7 @@ class Interpreter:
                 continue
             if block.delete and block_delete:
                 continue
-            self.blocks_run += 1
-            if self.blocks_run > max_blocks:
-                raise self._error(src, i, f"the program runs more than {max_blocks} lines (an endless loop?); "
-                                          "split it, or raise the memory budget (flowmc run --memory-mb, "
-                                          "FLOWMC_MEMORY_MB) if it is meant to")
+            self.count_block(src, i)
             self.line_no = i + 1
             self.file_index = src.index
             try:
@@ -351,6 +349,14 @@ class Interpreter:
                 raise self._error(src, i, str(exc)) from None
             if len(canon.kind) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
+
+    def count_block(self, src: Source, i: int) -> None:
+        """One more line run; the budget stops endless loops."""
+        self.blocks_run += 1
+        if self.blocks_run > self.max_blocks:
+            raise self._error(src, i, f"the program runs more than {self.max_blocks} lines (an endless loop?); "
+                                      "split it, or raise the memory budget (flowmc run --memory-mb, "
+                                      "FLOWMC_MEMORY_MB) if it is meant to")
 
     def _fast_ready(self) -> bool:
         """Whether a run of plain lines may be read at once (nothing special in force)."""
@@ -606,25 +612,7 @@ class Interpreter:
 
     # Blocks -------------------------------------------------------------------------------------
     def _block(self, b, src: Source, i: int) -> None:
-        params = self.params
-        if b.const:
-            words, gvals, mvals = b.words, b.g, b.m
-            assigns = b.assign
-        else:
-            words = {k: (v if type(v) is float else v() if type(v) is not tuple else evaluate(v, params))
-                     for k, v in b.words.items()}
-            gvals = [v if type(v) is float else evaluate(v, params) for v in b.g]
-            mvals = [v if type(v) is float else evaluate(v, params) for v in b.m]
-            assigns = [(t if type(t) is not tuple else X.param_index(evaluate(t[1], params)),
-                        v if type(v) is float else evaluate(v, params)) for t, v in b.assign]
-        if assigns:
-            for target, value in assigns:
-                if value - value != 0.0:
-                    raise InterpError("number too large (a parameter cannot hold it)")
-                if type(target) is int:
-                    params.set_number(target, value)
-                else:
-                    params.set_named(target, value)
+        words, gvals, mvals = self.values(b)
         if b.comment is not None:
             self._comment(b.comment, src, i)
         if not words and not gvals and not mvals:
@@ -662,7 +650,7 @@ class Interpreter:
                     m[group] = code
         extra = None
         for letter in words:
-            if letter in "ABCUVW":
+            if letter in "ABCUVW" and g.get(C.MOTION) not in LATHE_CYCLES:  # G7x take U, W, A and C
                 extra = {k: v for k, v in words.items() if k in "ABCUVW"}
                 words = {k: v for k, v in words.items() if k not in "ABCUVW"}
                 break
@@ -670,6 +658,29 @@ class Interpreter:
         self._execute(words, g, m, src, i)
         if self.extra_axes:
             self._index_axes(None, src, i)
+
+    def values(self, b) -> tuple[dict, list, list]:
+        """A block's words, G and M values, evaluated; its parameter assignments done."""
+        params = self.params
+        if b.const:
+            words, gvals, mvals = b.words, b.g, b.m
+            assigns = b.assign
+        else:
+            words = {k: (v if type(v) is float else v() if type(v) is not tuple else evaluate(v, params))
+                     for k, v in b.words.items()}
+            gvals = [v if type(v) is float else evaluate(v, params) for v in b.g]
+            mvals = [v if type(v) is float else evaluate(v, params) for v in b.m]
+            assigns = [(t if type(t) is not tuple else X.param_index(evaluate(t[1], params)),
+                        v if type(v) is float else evaluate(v, params)) for t, v in b.assign]
+        if assigns:
+            for target, value in assigns:
+                if value - value != 0.0:
+                    raise InterpError("number too large (a parameter cannot hold it)")
+                if type(target) is int:
+                    params.set_number(target, value)
+                else:
+                    params.set_named(target, value)
+        return words, gvals, mvals
 
     def _index_axes(self, target, src: Source, i: int, motion: int | None = None) -> None:
         """A, B, C, U, V, W words. flowmc paths have X, Y and Z: a word that leaves its axis where it is
@@ -927,7 +938,8 @@ class Interpreter:
                     raise InterpError("X/Y/Z words with G80 (cancel motion): nothing would use them")
             elif not (axes_used and motion == self.motion and C.MOTION not in g):
                 self._motion(motion, w, nonmodal == 530, src, i)
-            self.motion = motion
+            if motion not in LATHE_CYCLES:  # after G7x the profile's last motion mode stays in force
+                self.motion = motion
         elif nonmodal == 530:
             raise InterpError("G53 needs a G0 or G1 move on its line")
         # 25. Stop.
@@ -1343,6 +1355,9 @@ class Interpreter:
         if motion == 20 or motion == 30:
             self._arc(motion == 30, w, src, i)
             return
+        if motion in LATHE_CYCLES:
+            run_g7x(self, motion, w, src, i)
+            return
         if motion in C.CYCLES:
             from flowmc.motion.gcode.cycles import run_cycle
 
@@ -1543,6 +1558,12 @@ class Interpreter:
         self.canon.arc_to(mx, my, mz, (cx, cy, cz), plane, ccw, turns, feed, spindle, file, line)
 
     def _check_unused(self, w: dict, motion, nonmodal, m: dict, g: dict) -> None:
+        if motion in LATHE_CYCLES:
+            for letter in "HJKL":
+                if letter in w:
+                    raise InterpError(f"{letter} word with nothing to use it (G70-G72 take D, E, I, P, Q, R, U "
+                                      f"and W)")
+            return
         arc = motion in (20, 30)
         cycle = motion in C.CYCLES
         g10 = nonmodal == 100
@@ -1566,7 +1587,7 @@ class Interpreter:
             (m.get(C.M_TOOL) == 61) + g10
         if "Q" in w and q_users == 0:
             raise InterpError("Q word with nothing to use it (M67/M68, M61, G64, G73/G83 and G10 use Q)")
-        if "L" in w and not (g10 or motion in C.CYCLES):
+        if "L" in w and not (g10 or motion in C.CYCLES or g.get(C.COMP) in (411, 421)):
             raise InterpError("L word with nothing to use it (G10 and canned cycles use L)")
         if "H" in w and g.get(C.LENGTH) not in (430, 432):
             raise InterpError("H word with nothing to use it (G43 and G43.2 use H)")

@@ -1,0 +1,65 @@
+"""``flowmc run`` is the explicit Start on the command line: a progress bar on a terminal, lines off it,
+and Ctrl-C a controlled stop (exit 130, saying where it stopped, outputs safe)."""
+
+import os
+import pty
+import select
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+GRAPH = str(REPO / "graphs" / "thesis_3axis.flowmc.json")
+
+
+def _on_a_terminal(args, interrupt_after: float | None = None, timeout: float = 60.0,
+                   once: bytes = b"") -> tuple[int, str]:
+    """Run ``flowmc`` on a pseudo-terminal; SIGINT (what Ctrl-C sends) ``interrupt_after`` s after the
+    output first shows ``once`` (so a loaded machine cannot send it before the job runs)."""
+    pid, fd = pty.fork()
+    if pid == 0:  # the child: flowmc on the terminal
+        os.execv(sys.executable, [sys.executable, "-m", "flowmc", *args])
+    out, t0, seen, sent = b"", time.monotonic(), None, False
+    while time.monotonic() - t0 < timeout:
+        ready, _, _ = select.select([fd], [], [], 0.1)
+        if ready:
+            try:
+                data = os.read(fd, 4096)
+            except OSError:
+                break
+            if not data:
+                break
+            out += data
+        if seen is None and once in out:
+            seen = time.monotonic()
+        if interrupt_after is not None and not sent and seen is not None and time.monotonic() - seen > interrupt_after:
+            os.kill(pid, signal.SIGINT)
+            sent = True
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status), out.decode(errors="replace")
+
+
+def test_ctrl_c_is_a_controlled_stop_with_exit_130_saying_where():
+    code, text = _on_a_terminal(["run", GRAPH, "--realtime", "--speed", "2"], interrupt_after=1.0,
+                                once="s left".encode())
+    assert code == 130, text
+    assert "stopped by Ctrl-C: job card: aborted: stopped by the operator at segment" in text
+    assert "outputs left safe" in text and "Traceback" not in text
+    assert "━" in text and "s left" in text  # the progress bar was drawn
+
+
+def test_off_a_terminal_each_job_says_its_state_and_the_run_ends_done():
+    proc = subprocess.run([sys.executable, "-m", "flowmc", "run", GRAPH, "--realtime", "--speed", "20"],
+                          capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr
+    assert "job card: running" in proc.stderr and "job card: done" in proc.stderr
+    assert "━" not in proc.stderr
+    assert '"outcome": "done"' in proc.stdout
+
+
+def test_start_at_needs_a_program_job():
+    proc = subprocess.run([sys.executable, "-m", "flowmc", "run", GRAPH, "--start-at", "home:2"],
+                          capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 2 and "'home' is not a program job (program jobs: card)" in proc.stderr
