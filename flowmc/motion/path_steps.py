@@ -148,7 +148,7 @@ def _conic_arc(seg, cur, end, center_mm, semi_axes_mm, ccw, sweep, step, interp:
 
 def _segment_streams(seg, cur, step, tol, interp: _Interp):
     start, end = _grid(seg.start, step), _grid(seg.end, step)
-    least = _rows_at_least(cur, start) + (_rows_at_least(start, end) if isinstance(seg, Line) else 0)
+    least = float(_rows_at_least(cur, start) + (_rows_at_least(start, end) if isinstance(seg, Line) else 0))
     if isinstance(seg, Arc) and seg.normal_axis == 2:  # its XY length, in steps of the larger axis step
         least += 0.5 * (seg.radius + seg.end_radius) * abs(seg.sweep) / (math.sqrt(2.0) * float(step.max()))
     _check_rows(least, seg)
