@@ -320,7 +320,7 @@ def offset_path(path: Path, radius: float, side: Literal["left", "right"],
     if gouge not in ("refuse", "trim"):
         raise PathError(f"gouge must be 'refuse' or 'trim', got {gouge!r}")
     if not (0 <= radius <= MAX_COORD_MM):
-        raise PathError(f"tool radius must be within 0 to {MAX_COORD_MM:g} mm, got {radius}")
+        raise PathError(f"tool radius must be a number >= 0 mm and at most {MAX_COORD_MM:g} mm, got {radius}")
     if radius == 0 or not path.segments:
         return path
     sign = 1.0 if side == "left" else -1.0
