@@ -88,6 +88,9 @@ def _check_rows(count: float, seg) -> None:
 
 
 def _chords(seg, cur, end, step, tol, interp: _Interp):
+    coarse = np.asarray(seg.point_at(np.linspace(0.0, seg.length, 257)), dtype=float)[:, :2]
+    xy = float(np.linalg.norm(np.diff(coarse, axis=0), axis=1).sum())  # a chord polyline: at most the curve's length
+    _check_rows(xy / (math.sqrt(2.0) * float(step.max())), seg)  # before sampling it finely
     grid = np.rint(np.asarray(seg.sample(tol), dtype=float)[1:-1, :2] / step)
     _check_rows(float(np.abs(np.diff(np.vstack([cur, grid, end]), axis=0)).max(axis=1, initial=0).sum()), seg)
     pts = [(int(x), int(y)) for x, y in grid]

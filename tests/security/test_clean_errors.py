@@ -59,6 +59,15 @@ def _with_bom(folder: Path) -> str:
     return str(path)
 
 
+def _nurbs(folder: Path, points: list, feed: float = 600.0, node: str = "interp.dda") -> str:
+    """A NURBS into an interpolator (cases the fuzz test found)."""
+    return _graph(folder, [{"id": "n", "type": "path.nurbs", "params": {"control_points": points, "feed": feed}},
+                           {"id": "m", "type": "machine"}, {"id": "i", "type": node}],
+                  [("n.path", "i.path"), ("m.machine", "i.machine")])
+
+
+CUSP = [[0, 0, 0], [10, 20, 0], [-30, 20, 0], [40, 0, 0]]
+LONG = [[0, 0, 0], [10, 20, 0], [30, 20, 0], [508669.7, 0, 0]]
 XY = str(REPO / "graphs" / "xy_plotter.flowmc.json")
 SURROGATE = '{"schema_version": 1, "nodes": [{"id": "n", "type": "basic.number", "title": "\\ud800"}], "wires": []}'
 
@@ -86,6 +95,13 @@ CASES = {
         d, [{"id": "gc", "type": "path.gcode_in", "params": {"file": "p.ngc"}}]))[1]], 1, "pipe or device"),
     "terminal escapes in a G-code line": (lambda d: ["run", _gcode(d, "G1 X1 F600\nG1 \x1b[2J\x1b]0;x\x07 Q5\n")],
                                           1, "p.ngc:2"),
+    "a NURBS with a cusp, time division": (lambda d: ["run", _nurbs(d, CUSP, node="interp.time_division")], 0, ""),
+    "a 508 km NURBS into DDA": (lambda d: ["run", _nurbs(d, LONG)], 1, "steps, over the budget"),
+    "a NURBS at feed 5e-324": (lambda d: ["run", _nurbs(d, CUSP, 5e-324, "interp.time_division")], 1,
+                               "unboundedly many setpoints"),
+    "a tool radius of 1e184": (lambda d: ["run", _graph(d, [
+        {"id": "a", "type": "path.polyline", "params": {"points": [[0, 0, 0], [10, 0, 0], [10, 10, 0]]}},
+        {"id": "o", "type": "path.tool_offset", "params": {"radius": 1e184}}], [("a.path", "o.path")])], 1, "node 'o'"),
     "a graph file with a UTF-8 BOM": (lambda d: ["run", _with_bom(d)], 0, ""),
 }
 
