@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-from flowmc.errors import FlowmcError, GraphError
+from flowmc.errors import FlowmcError, GraphError, printable
 from flowmc.settings import UsageError, input_target, param_target
 
 __all__ = ["main", "build_parser"]
@@ -25,7 +25,8 @@ EXIT_OK, EXIT_FAILED, EXIT_INVALID, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 def _err(line: str) -> None:
-    print(line, file=sys.stderr)
+    """One message to stderr; text quoted from files (a terminal escape in a param) shows escaped."""
+    print("\n".join(printable(part) for part in line.split("\n")), file=sys.stderr)
 
 
 # ---------------------------------------------------------------- values from the command line

@@ -42,7 +42,10 @@ def _state(seg: Segment, **changes) -> dict:
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
+    norm = np.linalg.norm(v)
+    if not norm > 0:  # a piece shorter than float precision at this size has no direction to offset along
+        raise PathError("a piece of the path is too short, next to its size, to offset (no direction)")
+    return v / norm
 
 
 def _left(v: np.ndarray) -> np.ndarray:

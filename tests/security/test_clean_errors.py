@@ -102,6 +102,16 @@ CASES = {
     "a tool radius of 1e184": (lambda d: ["run", _graph(d, [
         {"id": "a", "type": "path.polyline", "params": {"points": [[0, 0, 0], [10, 0, 0], [10, 10, 0]]}},
         {"id": "o", "type": "path.tool_offset", "params": {"radius": 1e184}}], [("a.path", "o.path")])], 1, "node 'o'"),
+    "terminal escapes in a param, at validate": (lambda d: ["validate", _graph(d, [{"id": "t", "type": "path.segment_table",
+        "params": {"rows": [{"type": "\x1b[2J\x1b]0;t\x07", "end": [1, 0, 0]}]}}])], 2, "\\x1b[2J"),
+    "offsetting a piece too short for its size": (lambda d: ["run", _graph(d, [
+        {"id": "a", "type": "path.polyline", "params": {"points": [[0, 0, 0], [1e-9, 0, 0], [10, 10, 0]], "closed": True}},
+        {"id": "r", "type": "path.rotate", "params": {"degrees": 30.0}},
+        {"id": "s", "type": "path.scale", "params": {"factor": 2.0}},
+        {"id": "o", "type": "path.tool_offset", "params": {"radius": 36000000.0}}],
+        [("a.path", "r.path"), ("r.path", "s.path"), ("s.path", "o.path")])], 1, "node 'o'"),
+    "a canned cycle repeated 36,000,000 times": (lambda d: ["run", _gcode(
+        d, "G20 G90\nG81 X1 Y1 Z-0.1 R0.1 F10 L36000000\nG80\n")], 1, "p.ngc:2"),
     "a graph file with a UTF-8 BOM": (lambda d: ["run", _with_bom(d)], 0, ""),
 }
 
