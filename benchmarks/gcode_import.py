@@ -10,9 +10,10 @@ Three programs, each checked against rs274 once (untimed: number of moves, worst
   SIN/COS); target: at most 1.0 x rs274's time.
 - a 1,000,000-line plain program: flowmc's peak memory (max RSS of a fresh process reading it).
 
-Times are wall-clock medians of 5 runs after a warm-up, the readers taking turns so a busy moment
-on a shared machine hits both: ``rs274 -g FILE`` with its output to /dev/null, and flowmc's
-``read_gcode(FILE)`` giving the Path, file reading included.
+Times are medians of 5 runs after a warm-up, wall-clock and CPU (user + system), the readers taking
+turns so a busy moment on a shared machine hits both: ``rs274 -g FILE`` with its output to
+/dev/null, and flowmc's ``read_gcode(FILE)`` giving the Path, file reading included. A target is met
+when both ratios meet it.
 
     python3 benchmarks/gcode_import.py [lines]
 """
@@ -20,7 +21,9 @@ on a shared machine hits both: ``rs274 -g FILE`` with its output to /dev/null, a
 from __future__ import annotations
 
 import math
+import os
 import random
+import resource
 import statistics
 import subprocess
 import sys
@@ -30,11 +33,13 @@ from pathlib import Path as FsPath
 
 import numpy as np
 
+import flowmc.budget as budget
 from flowmc.devices.linuxcnc.rs274 import run_rs274_file
 from flowmc.motion.gcode import read_gcode
 from flowmc.motion.path import Dwell
 
 RUNS = 5
+MILLION_BUDGET_MB = 4096
 
 def plain_program(n_lines: int, seed: int = 7) -> str:
     """Lines, rapids, I/J/K and R arcs in all planes, helices with turns, G91 stretches, feed changes,
@@ -153,17 +158,24 @@ def parametric_program(n_lines: int, seed: int = 11) -> str:
     return "\n".join(out) + "\n"
 
 
-def interleaved_times(fns: list) -> list[float]:
-    """Median wall time of each function; runs alternate, so a busy moment hits all alike."""
+def _cpu() -> float:
+    """CPU seconds (user + system) of this process and its finished children."""
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def interleaved_times(fns: list) -> list[tuple[float, float]]:
+    """Median (wall, CPU) seconds of each function; runs alternate, so a busy moment hits all alike.
+    CPU time is what a loaded machine distorts least: wall time waits for the other processes."""
     for fn in fns:
         fn()
-    times: list[list[float]] = [[] for _ in fns]
+    times: list[list[tuple[float, float]]] = [[] for _ in fns]
     for _ in range(RUNS):
         for k, fn in enumerate(fns):
-            t0 = time.perf_counter()
+            c0, t0 = _cpu(), time.perf_counter()
             fn()
-            times[k].append(time.perf_counter() - t0)
-    return [statistics.median(t) for t in times]
+            times[k].append((time.perf_counter() - t0, _cpu() - c0))
+    return [(statistics.median(w for w, _ in t), statistics.median(c for _, c in t)) for t in times]
 
 
 def rs274(file: FsPath) -> None:
@@ -185,7 +197,9 @@ def peak_memory_mb(file: FsPath) -> tuple[float, int]:
     """Max RSS (MB) of a fresh Python reading the file, and how many segments it made."""
     code = ("import resource, sys; from flowmc.motion.gcode import read_gcode; p = read_gcode(sys.argv[1]); "
             "print(len(p), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
-    out = subprocess.run([sys.executable, "-c", code, str(file)], capture_output=True, text=True, check=True)
+    # The default memory budget (256 MB) refuses a file this big before reading it; raise it for the run.
+    env = {**os.environ, "FLOWMC_MEMORY_MB": str(MILLION_BUDGET_MB)}
+    out = subprocess.run([sys.executable, "-c", code, str(file)], capture_output=True, text=True, check=True, env=env)
     segments, kb = out.stdout.split()
     return int(kb) / 1024.0, int(segments)
 
@@ -196,22 +210,26 @@ def main(n_lines: int = 100_000) -> None:
         files["plain"].write_text(plain_program(n_lines))
         files["parametric"].write_text(parametric_program(n_lines))
         targets = {"plain": 0.75, "parametric": 1.0}
-        head = f"{'program':<12}{'lines':>9}{'rs274 s':>10}{'flowmc s':>10}{'ratio':>8}{'target':>8}  check against rs274"
+        head = (f"{'program':<12}{'lines':>9}{'rs274 s':>10}{'flowmc s':>10}{'ratio':>8}{'rs274 cpu':>11}"
+                f"{'flowmc cpu':>12}{'ratio':>8}{'target':>8}  check against rs274")
         print(head)
         print("-" * (len(head) + 40))
         for name, file in files.items():
             lines = file.read_text().count("\n")
             note = check(file)
-            t_ref, t_ours = interleaved_times([lambda f=file: rs274(f), lambda f=file: read_gcode(f)])
-            ratio = t_ours / t_ref
-            verdict = "met" if ratio <= targets[name] else "NOT met"
-            print(f"{name:<12}{lines:>9}{t_ref:>10.3f}{t_ours:>10.3f}{ratio:>8.2f}{targets[name]:>7.2f}x  {note} "
-                  f"(target {verdict})")
+            (t_ref, c_ref), (t_ours, c_ours) = interleaved_times([lambda f=file: rs274(f),
+                                                                  lambda f=file: read_gcode(f)])
+            ratio, cpu_ratio = t_ours / t_ref, c_ours / c_ref
+            verdict = "met" if max(ratio, cpu_ratio) <= targets[name] else "NOT met"
+            print(f"{name:<12}{lines:>9}{t_ref:>10.3f}{t_ours:>10.3f}{ratio:>8.2f}{c_ref:>11.3f}{c_ours:>12.3f}"
+                  f"{cpu_ratio:>8.2f}{targets[name]:>7.2f}x  {note} (target {verdict})")
         big = FsPath(tmp) / "million.ngc"
         big.write_text(plain_program(10 * n_lines, seed=3))
         mb, segments = peak_memory_mb(big)
         print(f"\npeak memory reading {10 * n_lines:,} plain lines ({big.stat().st_size / 1e6:.0f} MB, "
-              f"{segments:,} segments): {mb:.0f} MB max RSS")
+              f"{segments:,} segments): {mb:.0f} MB max RSS (memory budget raised to {MILLION_BUDGET_MB} MB; "
+              f"the default {budget.DEFAULT_MEMORY_MB} MB budget admits G-code files up to "
+              f"{budget.cap('bytes'):,} bytes and {budget.cap('segments'):,} segments)")
 
 
 if __name__ == "__main__":

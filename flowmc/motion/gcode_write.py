@@ -4,10 +4,13 @@
 coordinates, arc centres relative to the arc start as I/J/K - the default of LinuxCNC and of GRBL),
 optional ``G64 P<blend_tolerance>``, one explicit G0/G1/G2/G3/G4 per segment, F in mm/min when it
 changes, ``S.. M3/M4`` / ``M5`` when the spindle changes, M62/M63 and M67 for changes at a move's
-start, M64/M65 and M68 for changes at a dwell, then ``M2``. Ellipse and NURBS segments are written
-as G1 chords within ``chord_tolerance`` (G5.x splines are outside the subset we read back). Reading
-back what was written gives the same Path (to 10**-decimals mm); G-code cannot carry the feed of
-rapids and dwells, ``tool_down`` (it follows rapid) or ``source``.
+start, M64/M65 and M68 for changes at a dwell, path events as the codes that make them (M0, M1,
+M60 with their ``(MSG, ...)``, ``T.. M6``, a G0 of the rotary axes alone for an indexing stop), then
+``M2``. A NURBS that is one cubic or quadratic Bezier span in an XY plane (what G5 and G5.1 read as)
+is written as G5 or G5.1; other NURBS and ellipse segments as G1 chords within ``chord_tolerance``.
+Reading back what was written gives the same Path (to 10**-decimals mm), except that an arc whose
+radius prints as zero is a line; G-code cannot carry the feed of rapids and dwells, ``tool_down``
+(it follows rapid) or ``source``.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import numpy as np
 
 from flowmc.errors import GcodeError
 from flowmc.fileio import write_atomic
-from flowmc.motion.path import PLANES, Arc, Dwell, Line, Path, Segment, describe_segment
+from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path, PathEvent, Segment, describe_segment
 
 __all__ = ["path_to_gcode", "write_gcode", "format_mm"]
 
@@ -41,7 +44,8 @@ def path_to_gcode(path: Path, *, decimals: int = 6, blend_tolerance: float | Non
     Coordinates are printed with ``decimals`` places (mm); arcs read back need their end within
     0.0001 mm of their circle, so keep ``decimals`` >= 5 for paths with arcs. ``blend_tolerance``
     (mm) adds ``G64 P<tol>`` (LinuxCNC's path blending); without it nothing about blending is said.
-    Ellipse and NURBS segments become G1 chords within ``chord_tolerance`` mm. A path that does not
+    Ellipses, and NURBS other than single XY Bezier spans (G5/G5.1), become G1 chords within
+    ``chord_tolerance`` mm. A path that does not
     start at X0 Y0 Z0 (where a reader starts) begins with a G0 to its start, and a gap between two
     segments becomes a G0 as well. ``comment`` adds a first line ``(comment)``.
     """
@@ -119,7 +123,10 @@ class _Writer:
         self.gap_to(seg.start)
         if isinstance(seg, Dwell):
             self.state(seg, True, where)
-            self.out.append(f"G4 P{self.num(seg.seconds)}")
+            if seg.seconds > 0 or seg.event is None:
+                self.out.append(f"G4 P{self.num(seg.seconds)}")
+            if seg.event is not None:
+                self.event(seg.event)
             return
         self.state(seg, False, where)
         if isinstance(seg, Line) or (isinstance(seg, Arc) and self.vanishing(seg)):
@@ -130,6 +137,8 @@ class _Writer:
             self.pos = new
         elif isinstance(seg, Arc):
             self.arc(seg)
+        elif isinstance(seg, NurbsCurve) and self.spline(seg):
+            pass
         else:
             points = seg.sample(chord_tol)[1:]
             for p in points:
@@ -139,11 +148,52 @@ class _Writer:
                 self.pos = new
 
     def vanishing(self, seg: Arc) -> bool:
-        """An arc short of a full turn whose ends print the same in its plane: written as a line,
-        since a reader would take it for a full circle."""
+        """An arc written as a line: one short of a full turn whose ends print the same in its plane
+        (a reader would take it for a full circle), or one whose radius prints as zero (cutter
+        compensation with a tool the size of the hole makes these; G-code has no zero-radius arc)."""
         iu, iv = PLANES[seg.normal_axis][1]
         same = self.num(seg.end[iu]) == self.pos[iu] and self.num(seg.end[iv]) == self.pos[iv]
-        return same and abs(seg.sweep) < 2 * math.pi * (1 - 1e-9)
+        if same and abs(seg.sweep) < 2 * math.pi * (1 - 1e-9):
+            return True
+        return all(self.num(float(seg.center[k]) - float(self.pos[k])) == "0" for k in (iu, iv))
+
+    def event(self, event: PathEvent) -> None:
+        """A path event as the code that makes it: M0/M1/M60 (after its message as ``(MSG, ...)``),
+        T.. M6, or a G0 of the rotary or UVW axes alone for an indexing stop."""
+        if event.kind == "index":
+            if event.axes:
+                self.out.append("G0 " + " ".join(f"{a}{self.num(v)}" for a, v in event.axes))
+            else:
+                self.out.append("M0")
+            return
+        if event.kind == "tool_change":
+            self.out.append(("" if event.tool is None else f"T{event.tool} ") + "M6")
+            return
+        if event.message:
+            self.out.append("(MSG, " + re.sub(r"[()\n\r]", " ", event.message) + ")")
+        self.out.append({"pause": "M0", "optional_pause": "M1", "pallet_change": "M60"}[event.kind])
+
+    def spline(self, seg: NurbsCurve) -> bool:
+        """A NURBS that is one polynomial Bezier span in an XY plane (what G5 and G5.1 make) as
+        G5 (cubic) or G5.1 (quadratic); False for any other, which is written as chords."""
+        ctrl, deg, knots = seg.control_points, seg.degree, seg.knots
+        if seg.rapid or deg not in (2, 3) or len(ctrl) != deg + 1:
+            return False
+        clamped = np.ptp(knots[: deg + 1]) == 0 and np.ptp(knots[-deg - 1:]) == 0
+        if not clamped or np.ptp(seg.weights) > 1e-12 * np.max(seg.weights):
+            return False
+        if np.ptp(ctrl[:, 2]) > 0 or self.num(ctrl[0, 2]) != self.pos[2]:
+            return False
+        words = [] if self.plane == 2 else ["G17"]
+        self.plane = 2
+        axis_words, new = self.axes(seg.end)
+        words += ["G5" if deg == 3 else "G5.1"] + ([axis_words] if axis_words else [])
+        words += [f"I{self.num(ctrl[1, 0] - float(self.pos[0]))}", f"J{self.num(ctrl[1, 1] - float(self.pos[1]))}"]
+        if deg == 3:
+            words += [f"P{self.num(ctrl[2, 0] - float(new[0]))}", f"Q{self.num(ctrl[2, 1] - float(new[1]))}"]
+        self.out.append(" ".join(words) + self.feed_word(seg))
+        self.pos = new
+        return True
 
     def arc(self, seg: Arc) -> None:
         normal = seg.normal_axis

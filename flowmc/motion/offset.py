@@ -16,7 +16,9 @@ programmed contour (pyclipper, flowmc.motion.clearance): a stretch that passes c
 to any part of it (a slot narrower than the tool, a concave arc tighter than the radius, a wall the
 offset runs into) would gouge it. ``gouge="refuse"`` refuses the path naming both segments;
 ``gouge="trim"`` leaves such stretches uncut (the tool lifts over them: a rapid with the tool up), and
-keeps the rest exact, arcs as arcs.
+keeps the rest exact, arcs as arcs. Where the tool has no room at all (a slot narrower than it, a
+concave arc tighter than it), refuse names the segment, and trim joins the offsets around it by a
+straight connector that the check then lifts over; trim refuses only when nothing is left to cut.
 """
 
 from __future__ import annotations
@@ -261,22 +263,58 @@ def _placed(seg: Segment, xy: np.ndarray) -> Segment:
     return Line(np.append(xy, seg.start[2]), np.append(xy, seg.end[2]), **_state(seg))
 
 
-def _offset_chain(chain: list[tuple[int, Segment]], r: float, sign: float) -> list[Segment]:
+def _connector(p: _Piece, q: _Piece) -> Line:
+    """Where the exact offset cannot be made (trim mode): a straight move from p's end to q's start. It
+    passes inside the tool radius of the contour, so the gouge check lifts it over."""
+    z = float(q.seg.start[2])
+    return Line(np.append(p.point(p.t1), z), np.append(q.point(q.t0), z),
+                **_state(q.seg, outputs=(), analog=(), source=f"{q.where} (no room for the tool)"))
+
+
+def _offset_chain(chain: list[tuple[int, Segment]], r: float, sign: float, lenient: bool = False) -> list[Segment]:
+    """The offset of one chain of cutting moves. ``lenient`` (trim mode): where the tool has no room
+    (a concave arc tighter than it, offsets that do not meet, a segment whose offset vanishes between
+    its neighbours') the offsets are joined by connectors for the gouge check to lift over, instead of
+    refusing."""
     pieces: list[_Piece] = []
     still: dict[int, list[Segment]] = {}  # moves without XY travel after piece k (-1: before the first)
+    moving: list[Segment] = []
     for i, seg in chain:
         if _moves_in_xy(i, seg):
-            pieces.append(_piece(i, seg, r, sign))
+            moving.append(seg)
+            try:
+                pieces.append(_piece(i, seg, r, sign))
+            except PathError:
+                if not lenient:
+                    raise
         else:
             still.setdefault(len(pieces) - 1, []).append(seg)
     if not pieces:
         return [seg for _, seg in chain]
     n = len(pieces)
-    closed = np.linalg.norm(pieces[0].seg.start - pieces[-1].seg.end) <= 1e-6
+    closed = np.linalg.norm(moving[0].start - moving[-1].end) <= 1e-6
     corners: dict[int, Segment | None] = {}
     for k in range(n if closed else n - 1):
         p, q = pieces[k], pieces[(k + 1) % n]
-        corners[k] = _join(p, q, p.seg.end, r, sign)
+        if lenient and np.linalg.norm(p.seg.end - q.seg.start) > 1e-6:  # a dropped arc between them
+            corners[k] = _connector(p, q)
+            continue
+        try:
+            corners[k] = _join(p, q, p.seg.end, r, sign)
+        except PathError:
+            if not lenient:
+                raise
+            corners[k] = _connector(p, q)
+    vanished = [k for k, p in enumerate(pieces) if p.extent() <= _TOL]
+    while lenient and vanished:
+        for k in vanished:  # undo the trims at both its corners, and join there by connectors
+            for c in ((k - 1) % n, k):
+                if c in corners:
+                    pieces[c].t1, pieces[(c + 1) % n].t0 = 1.0, 0.0
+            for c in ((k - 1) % n, k):
+                if c in corners:
+                    corners[c] = _connector(pieces[c], pieces[(c + 1) % n])
+        vanished = [k for k, p in enumerate(pieces) if p.extent() <= _TOL]
     for p in pieces:
         if p.extent() <= _TOL:
             raise PathError(f"the tool radius {r:g} mm is too large here: the offset of this segment vanishes "
@@ -329,7 +367,7 @@ def offset_path(path: Path, radius: float, side: Literal["left", "right"],
     sign = 1.0 if side == "left" else -1.0
     runs = _chains(path)
     done: list[list[Segment]] = [
-        _offset_chain(items, radius, sign) if kind == "chain" else [] for kind, items in runs]
+        _offset_chain(items, radius, sign, gouge == "trim") if kind == "chain" else [] for kind, items in runs]
     out: list[Segment] = []
     for k, (kind, items) in enumerate(runs):
         if kind == "chain":
@@ -348,7 +386,11 @@ def offset_path(path: Path, radius: float, side: Literal["left", "right"],
                         f": its centre passes {dist:.4f} mm from it for {s1 - s0:.4f} mm of this offset segment (a "
                         f"slot narrower than the tool, or a concave arc smaller than the radius); choose gouge "
                         f"'trim' to leave that stretch uncut", where=describe_segment(k, seg.source))
-    return Path(_trimmed(out, found))
+    trimmed = _trimmed(out, found)
+    if not any(not seg.rapid and seg.length > _TOL for seg in trimmed):
+        raise PathError(f"the tool (radius {radius:g} mm) has no room anywhere along this contour: trimming the "
+                        f"gouges leaves nothing to cut", where=describe_segment(found[0][0], found[0][1].source))
+    return Path(trimmed)
 
 
 def _trimmed(out: list[Segment], found: list) -> list[Segment]:

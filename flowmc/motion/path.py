@@ -558,7 +558,7 @@ class PathEvent:
     optional-stop switch is on), ``"pallet_change"`` (M60: stop for a pallet shuttle), ``"tool_change"``
     (M6: stop for a manual tool change to ``tool``; a plotter may treat it as a pen swap), ``"index"``
     (a G0/G1 that moves only a rotary or UVW axis, which flowmc paths do not have: stop so it can be
-    indexed). ``message``
+    indexed; ``axes`` says where to: ``(("B", 45.0),)``, degrees for A/B/C, mm for U/V/W). ``message``
     is what to show the operator (a preceding ``(MSG, ...)``, or the new tool's table entry).
     Motion before the event has come to a stop when it happens; nothing after it starts until the
     job resumes.
@@ -567,10 +567,14 @@ class PathEvent:
     kind: str
     message: str = ""
     tool: int | None = None
+    axes: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):
         if self.kind not in EVENT_KINDS:
             raise PathError(f"path event kind must be one of {', '.join(EVENT_KINDS)}, got {self.kind!r}")
+        if any(not (isinstance(a, str) and len(a) == 1 and a in "ABCUVW") or not math.isfinite(v)
+               for a, v in self.axes):
+            raise PathError(f"an event's axes are (letter A/B/C/U/V/W, finite value) pairs, got {self.axes!r}")
 
     def describe(self) -> dict:
         out: dict = {"kind": self.kind}
@@ -578,6 +582,8 @@ class PathEvent:
             out["message"] = self.message
         if self.tool is not None:
             out["tool"] = self.tool
+        if self.axes:
+            out["axes"] = dict(self.axes)
         return out
 
 

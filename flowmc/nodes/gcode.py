@@ -97,7 +97,8 @@ class GcodeOutParams(BaseModel):
     blend_tolerance: Annotated[float | None, Field(ge=0, description="Add G64 P<tolerance> (LinuxCNC path "
                                                                      "blending); none: say nothing",
                                                    json_schema_extra=_MM)] = None
-    chord_tolerance: Annotated[float, Field(gt=0, description="Ellipses and NURBS become G1 chords within this",
+    chord_tolerance: Annotated[float, Field(gt=0, description="Ellipses and NURBS (other than single "
+                                                                    "G5/G5.1 spans) become G1 chords within this",
                                             json_schema_extra=_MM)] = 0.001
 
 

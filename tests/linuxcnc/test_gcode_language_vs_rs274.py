@@ -303,6 +303,28 @@ G0 X30 Z10
 M2
 """
 
+# G76 threading: outside and bored threads, degression, compound angle, spring passes, tapers at
+# either end or both, a drive line running +Z, diameter mode, Y off the axis, and a tool offset.
+THREADING = """\
+G18 G21 G90 S500 M3 F100
+G0 X12 Z2
+G76 P1.5 Z-20 I-1 J0.1 K0.9 R1.5 Q29.5 H2
+G0 X12 Z2
+G76 P1.25 Z-10 X14 I-0.5 J0.2 K0.8 E2 L1
+G0 X12 Z2
+G76 P1.25 Z-10 I-0.5 J0.2 K0.8 E2 L2 R2
+G0 X12 Z2
+G76 P1.25 Z-10 I-0.5 J0.3 K0.8 E1.5 L3 H1
+G0 X5 Z-30 Y1
+G76 P2 Z-5 I1 J0.25 K1.2 Q30 (a bore, cut towards +Z)
+G7 G0 X20 Z2
+G76 P1 Z-8 I-1 J0.2 K1.3 (I, J and K as diameters)
+G8 G43.1 Z0.5
+G0 X10 Z3
+G76 P1 Z-8 I-0.6 J0.1 K0.6 R3
+M2
+"""
+
 
 @pytest.mark.parametrize("name, text, var, tol, lines", [
     ("parameters.ngc", PARAMETERS, False, MM_TOL, True),
@@ -315,6 +337,8 @@ M2
     # rs274 names a lathe cycle's moves by the profile's last line, flowmc by the cycle's line.
     ("lathe.ngc", LATHE, False, MM_TOL, False),
     ("lathe_inch.ngc", LATHE.replace("G21", "G20"), False, INCH_TOL, False),
+    ("threading.ngc", THREADING, False, MM_TOL, True),
+    ("threading_inch.ngc", THREADING.replace("G21", "G20"), False, INCH_TOL, True),
 ], ids=lambda v: v if isinstance(v, str) and v.endswith(".ngc") else "")
 def test_feature_program_agrees_with_rs274(name, text, var, tol, lines):
     result, ref = check(text, name, var=var, tol=tol, lines=lines)
@@ -368,6 +392,13 @@ PROFILE = "G18 G21 F100\nO1 SUB\nG1 X2 Z0\nX6 Z-4\nZ-8\nX4 Z-12\nO1 ENDSUB\n"
      "G72 can only be used in the XZ plane (G18)"),
     (PROFILE + "G41.1 D1\nG71.1 Q1 X10 Z2 D0.2 I1\nM2\n", 9, "cannot be used with cutter compensation",
      "G71.1 cannot be used with cutter compensation on"),
+    ("G18 G21 S100 M3\nG76 Z-1 I-1 J0.1 K0.5\nM2\n", 2, "P word missing with G76", "G76 needs a P word"),
+    ("G18 G21 S100 M3\nG76 P1 Z-1 I-1 K0.5\nM2\n", 2, "I J or K words missing with G76", "needs I, J and K"),
+    ("G18 G21 S100 M3\nG76 P1 Z-1 I0 J0.1 K0.5\nM2\n", 2, "I must not be 0", "I must not be 0"),
+    ("G18 G21 S100 M3\nG76 P1 Z-1 I-1 J0 K0.5\nM2\n", 2, "J must be greater than 0", "J must be greater than 0"),
+    ("G18 G21 S100 M3\nG76 P1 Z-1 I-1 J0.5 K0.5\nM2\n", 2, "K must be greater than J", "K must be greater than J"),
+    ("G18 G21 S100\nG76 P1 Z-1 I-1 J0.1 K0.5\nM2\n", 2, "not turning in G76", "spindle turning"),
+    ("G18 G21 S100 M3\nG76 P1 Z-1 I-1 J0.1 K0.5 R1000000\nM2\n", 2, "", "passes"),
 ])
 def test_programs_rs274_refuses_we_refuse_on_the_same_line(text, line, rs274_says, ours):
     if rs274_says:

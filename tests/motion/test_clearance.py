@@ -43,6 +43,18 @@ def test_a_gap_narrower_than_the_tool_is_refused_naming_both_segments():
     assert min_distance(fits, polygon(NOTCH)) >= 1.4 - 1e-6
 
 
+def test_the_reported_case_a_1_mm_slot_with_a_1_mm_tool_radius_is_refused_and_trimmed_clear():
+    # the tool outside the part (right of a counter-clockwise outline) must go down the 1 mm slot
+    slot = [(0, 0), (20, 0), (20, 10), (10.5, 10), (10.5, 4), (9.5, 4), (9.5, 10), (0, 10), (0, 0)]
+    with pytest.raises(PathError, match=r"segment 5 \(row 5\): the tool radius 1 mm is too large"):
+        offset_path(polygon(slot), 1.0, "right")
+    trimmed = offset_path(polygon(slot), 1.0, "right", gouge="trim")
+    assert min_distance(trimmed, polygon(slot)) >= 1.0 - 1e-5
+    # a slot a hair wider than the tool is cut down to its bottom
+    wide = offset_path(polygon([(x * 1.01 - 0.05 if 9 < x < 11 else x, y) for x, y in slot]), 0.5, "right")
+    assert min(p[1] for s in wide for p in (s.start, s.end)) < 4.6
+
+
 def test_trimming_lifts_over_the_gouges_and_never_cuts_into_the_contour():
     path = polygon(NOTCH)
     trimmed = offset_path(path, 2.0, "left", gouge="trim")
@@ -63,10 +75,24 @@ def test_a_concave_arc_tighter_than_the_tool_is_refused_naming_it_and_convex_arc
     c, d = np.array([10.0, 3.0, 0.0]), np.array([0.0, 3.0, 0.0])
     path = Path([Line(a, b, source="floor"), Arc(b, c, np.array([10.0, 1.5, 0.0]), ccw=True, source="end"),
                  Line(c, d, source="roof")])
-    for mode in ("refuse", "trim"):
-        with pytest.raises(PathError) as err:
-            offset_path(path, 2.0, "left", gouge=mode)
-        assert err.value.where == "segment 2 (end)" and "arc's radius 1.5 mm" in str(err.value)
+    with pytest.raises(PathError) as err:
+        offset_path(path, 2.0, "left")
+    assert err.value.where == "segment 2 (end)" and "arc's radius 1.5 mm" in str(err.value)
+    with pytest.raises(PathError, match="no room anywhere along this contour"):  # trim: nothing left to cut
+        offset_path(path, 2.0, "left", gouge="trim")
+    # a wall with a round recess (radius 1.5) the tool cannot enter: trim runs straight past it
+    p1, p2 = np.array([10.0, 5.0, 0.0]), np.array([10.0, 8.0, 0.0])
+    wall = Path([Line(a, b, source="floor"), Line(b, p1, source="wall"),
+                 Arc(p1, p2, np.array([10.0, 6.5, 0.0]), ccw=True, source="recess"),
+                 Line(p2, np.array([10.0, 12.0, 0.0]), source="wall 2")])
+    with pytest.raises(PathError, match="arc's radius 1.5 mm"):
+        offset_path(wall, 2.0, "left")
+    trimmed = offset_path(wall, 2.0, "left", gouge="trim")
+    assert not any(s.source == "recess" for s in trimmed)
+    past = [s for s in trimmed if "no room for the tool" in s.source]
+    assert len(past) == 1 and not past[0].rapid
+    np.testing.assert_allclose([past[0].start[:2], past[0].end[:2]], [[8, 5], [8, 8]], atol=1e-9)
+    assert min_distance(trimmed, wall) >= 2.0 - 1e-5
     outside = offset_path(path, 2.0, "right")  # round the outside the arc grows and stays an arc
     arcs = [s for s in outside if isinstance(s, Arc) and s.source == "end"]
     assert len(arcs) == 1 and arcs[0].radius == pytest.approx(3.5)

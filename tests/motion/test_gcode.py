@@ -8,7 +8,7 @@ import pytest
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode import RAPID_FEED, parse_gcode, read_gcode
 from flowmc.motion.gcode_write import path_to_gcode, write_gcode
-from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, NurbsCurve, Path
+from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, PathEvent
 
 
 def moves(path: Path) -> list:
@@ -243,7 +243,7 @@ def test_an_empty_program_is_an_empty_path():
     ("G1 X1 F60\nG38.2 Z-5\n", 2, "G38.2 is not supported (probing (G38.x) is not supported"),
     ("G0 X1\nG33 Z-5 K1\n", 2, "G33 needs the spindle turning"),
     ("G0 X1\nG33.1 Z-5 K1\n", 2, "G33.1 needs the spindle turning"),
-    ("G0 X1\nG76 P1 Z-1 I-1 J1 K1\n", 2, "G76 is not supported (the threading cycle"),
+    ("G0 X1\nG76 P1 Z-1 I-1 J1 K1\n", 2, "G76 needs the spindle turning"),
     ("G0 X1\nG1 X2 A90 F100\n", 2, "axis A is not supported"),
     ("G81 X1 Y1 Z-1 R1\n", 1, "G81 with no feed rate"),
     ("M6 T-2\n", 1, "tool number (T) must be >= 0"),
@@ -491,7 +491,8 @@ def test_a_path_away_from_the_origin_starts_with_a_rapid_and_gaps_become_rapids(
 
 def test_ellipses_and_nurbs_are_written_as_chords_within_tolerance():
     ellipse = EllipseArc.from_axes((0, 0, 0), 20.0, 8.0, 0.3, 0.0, math.pi, feed=10.0)
-    nurbs = NurbsCurve([(0, 0, 0), (10, 20, 0), (30, -20, 0), (40, 0, 0)], feed=10.0)
+    # two spans: not what one G5 says
+    nurbs = NurbsCurve([(0, 0, 0), (10, 20, 0), (20, 0, 0), (30, -20, 0), (40, 0, 0)], feed=10.0)
     tol = 0.01
     for seg in (ellipse, nurbs):
         path = Path([Line((0, 0, 0), seg.start, rapid=True, tool_down=False), seg])
@@ -515,6 +516,44 @@ def test_an_arc_too_small_to_print_is_written_as_a_line_not_a_full_circle():
     back = parse_gcode(path_to_gcode(Path([Line((0, 0, 0), (1, 0, 0), feed=10.0), tiny, full])))
     assert [s.kind for s in back] == ["line", "line", "arc"]
     assert back[2].sweep == pytest.approx(2 * math.pi)
+
+
+def test_single_bezier_spans_are_written_as_g5_and_g5_1_and_read_back_exactly():
+    cubic = NurbsCurve([(1, 1, -1), (11, 21, -1), (31, -19, -1), (41, 1, -1)], degree=3, feed=10.0)
+    quad = NurbsCurve([(41, 1, -1), (45, 10, -1), (50, 1, -1)], degree=2, feed=5.0)
+    tilted = NurbsCurve([(50, 1, -1), (55, 5, 0), (60, 1, -1)], degree=2, feed=5.0)  # not in an XY plane
+    path = Path([Line((0, 0, 0), (1, 1, -1), feed=10.0), cubic, quad, tilted])
+    text = path_to_gcode(path, chord_tolerance=0.01)
+    assert "\nG5 X41 I10 J20 P-10 Q-20\nG5.1 X50 I4 J9 F300\n" in text
+    back = moves(parse_gcode(text))
+    assert [s.kind for s in back[:3]] == ["line", "nurbs", "nurbs"] and len(back) > 10
+    for ours, seg in zip(back[1:3], (cubic, quad)):
+        assert ours.degree == seg.degree
+        close(ours.control_points, seg.control_points)
+        assert ours.feed == pytest.approx(seg.feed)
+
+
+def test_path_events_are_written_as_the_codes_that_make_them_and_read_back():
+    events = [PathEvent("pause", "check the clamps"), PathEvent("optional_pause"), PathEvent("pallet_change"),
+              PathEvent("tool_change", "change to tool T3", 3), PathEvent("index", "index B", axes=(("B", 45.0),))]
+    segs = []
+    for k, event in enumerate(events):
+        segs += [Line((k, 0, 0), (k + 1, 0, 0), feed=10.0), Dwell((k + 1, 0, 0), 0.0, event)]
+    text = path_to_gcode(Path(segs))
+    for code in ("(MSG, check the clamps)\nM0", "\nM1\n", "\nM60\n", "\nT3 M6\n", "\nG0 B45\n"):
+        assert code in text
+    assert "G4" not in text
+    back = [s.event for s in parse_gcode(text) if isinstance(s, Dwell)]
+    assert [(e.kind, e.tool, e.axes) for e in back] == [(e.kind, e.tool, e.axes) for e in events]
+    assert back[0].message == "check the clamps"
+
+
+def test_an_arc_whose_radius_prints_as_zero_is_written_as_a_line():
+    # cutter compensation with a tool the size of the hole: a helix of zero radius down the hole's axis
+    helix = Arc((0, 0, 0), (0, 0, -1), (1e-8, 0, 0), feed=10.0)
+    back = moves(parse_gcode(path_to_gcode(Path([helix]))))
+    assert [s.kind for s in back] == ["line"]
+    close(back[0].end, (0, 0, -1))
 
 
 def test_decimals_control_the_printed_precision():

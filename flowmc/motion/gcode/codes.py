@@ -27,7 +27,7 @@ CYCLES = frozenset({730, 740, 810, 820, 830, 840, 850, 860, 870, 880, 890})
 #: G code * 10 -> group, for every code flowmc runs.
 G_GROUP: dict[int, int] = {}
 for _codes, _group in (
-    ((0, 10, 20, 30, 50, 51, 330, 331, 800, 700, 710, 711, 712, 720, 721, 722, *CYCLES), MOTION),
+    ((0, 10, 20, 30, 50, 51, 330, 331, 760, 800, 700, 710, 711, 712, 720, 721, 722, *CYCLES), MOTION),
     ((40, 100, 280, 281, 300, 301, 520, 530, 920, 921, 922, 923), NONMODAL),
     ((170, 180, 190), PLANE),
     ((900, 910), DISTANCE),
@@ -67,7 +67,6 @@ for _codes, _group in (
 
 _G_REFUSED = [
     ((52, 53), "NURBS (G5.2/G5.3) are not supported: use the NURBS node"),
-    ((760,), "the threading cycle (G76) is not supported"),
     ((382, 383, 384, 385), "probing (G38.x) is not supported: flowmc plans paths ahead of time and cannot "
                            "wait for a probe to trip"),
     ((171, 181, 191), "the UVW planes (G17.1, G18.1, G19.1) are not supported (flowmc paths have X, Y and Z)"),

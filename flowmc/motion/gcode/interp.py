@@ -32,6 +32,7 @@ from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
 from flowmc.motion.gcode.params import _COMPUTED, Parameters
 from flowmc.motion.gcode.program import Source, read_program_file, subroutine_file
+from flowmc.motion.gcode.threading_cycle import run_g76
 from flowmc.motion.gcode.tools import Tool, ToolTable
 from flowmc.motion.path import PLANES, PathEvent
 
@@ -710,7 +711,8 @@ class Interpreter:
         self.extra_pos.update(moves)
         what = ", ".join(f"{k} to {v:g}{' deg' if k in 'ABC' else ' mm'}" for k, v in moves.items())
         self.canon.dwell(0.0, self.feed, self._spindle_rpm(), src.index, i + 1,
-                         PathEvent("index", f"index {what}: flowmc has no such axis, so the job stops for it"))
+                         PathEvent("index", f"index {what}: flowmc has no such axis, so the job stops for it",
+                                   axes=tuple(sorted(self.extra_pos.items()))))
 
     def _fast_move(self, w: dict, gvals: list, src: Source, i: int) -> bool:
         """The common block, G0/G1 with X/Y/Z/F words only, without the full order of execution;
@@ -1372,6 +1374,9 @@ class Interpreter:
         if motion == 331:
             self._rigid_tap(w, src, i)
             return
+        if motion == 760:
+            run_g76(self, w, src, i)
+            return
         raise InterpError(f"motion G{motion / 10:g} is not supported")
 
     def _synchronised(self, w: dict, src: Source, i: int) -> None:
@@ -1563,6 +1568,10 @@ class Interpreter:
                 if letter in w:
                     raise InterpError(f"{letter} word with nothing to use it (G70-G72 take D, E, I, P, Q, R, U "
                                       f"and W)")
+            return
+        if motion == 760:
+            if "D" in w:
+                raise InterpError("D word with nothing to use it (G76 takes P, I, J, K, R, Q, H, E and L)")
             return
         arc = motion in (20, 30)
         cycle = motion in C.CYCLES
