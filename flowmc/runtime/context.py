@@ -86,7 +86,7 @@ class NodeContext:
 
     def resolve_output(self, rel: str) -> Path:
         """A file a node writes, named in a param. Like ``resolve``, and it must not be a graph file, a
-        file or folder the graph reads (its own inputs, sub-graphs), a symbolic link, or a folder:
+        file the graph reads (its own inputs, sub-graphs), a symbolic link, or a folder:
         a writing node never replaces what it or another node reads."""
         where = f"node {self.node_id!r}"
         target = self.resolve(rel)
@@ -99,7 +99,7 @@ class NodeContext:
         if target.name.endswith(".flowmc.json"):
             raise GraphError(f"'{shown}' is a graph file; nodes never overwrite graph files", where=where)
         reads = self._reads() if self._reads is not None else frozenset()
-        if target in reads or any(target.is_relative_to(r) for r in reads if r.is_dir()):
+        if target in reads:  # a folder it reads (subroutines) may take new files: they are read only when called
             raise GraphError(f"'{shown}' is a file this graph reads; write to another name", where=where)
         return target
 

@@ -226,3 +226,14 @@ def test_a_second_tab_is_told_that_tabs_share_one_graph_and_undo(editor):
         assert not heard(first, b"share one undo history", seconds=2.0)  # alone: nothing to say
         with tab() as second:
             assert heard(second, b"share one undo history") and heard(first, b"share one undo history")
+
+
+def test_a_writing_node_may_write_into_the_subroutine_folder_it_reads(tmp_path):
+    (tmp_path / "p.ngc").write_text("G21 G90\nG1 X10 F600\n")
+    g = flowmc.GraphBuilder()
+    src = g.add("path.gcode_in", id="gc", file="p.ngc", subroutine_folder=".")
+    g.wire(src.path, g.add("path.gcode_out", id="o", file="out.ngc").path)
+    graph = g.build()
+    graph.path = tmp_path / "g.flowmc.json"
+    assert flowmc.run(graph).ok and flowmc.run(graph).ok  # the second run replaces its own output
+    assert "G1" in (tmp_path / "out.ngc").read_text() and "G1 X10" in (tmp_path / "p.ngc").read_text()
