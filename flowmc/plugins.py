@@ -81,7 +81,7 @@ def build_registry(*, node_folders: Iterable[str | os.PathLike] = (), entry_poin
     if entry_points:
         registry.defer(_load_entry_points)
     folders = [*(_config_folders(registry) if config else []), *(Path(f) for f in node_folders)]
-    for node_folder in folders:
+    for node_folder in dict.fromkeys(Path(f).expanduser().resolve() for f in folders):  # each folder once
         add_node_folder(registry, node_folder)
     return registry
 
@@ -155,6 +155,8 @@ def add_node_folder(registry: Registry, folder: str | os.PathLike) -> list[str]:
     if not path.is_dir():
         registry.failures[where] = "not a folder"
         return []
+    if path not in registry.node_folders:
+        registry.node_folders.append(path)
     package = "flowmc_node_folder_" + hashlib.blake2b(str(path).encode(), digest_size=6).hexdigest()
     added = []
     for file in sorted(path.glob("*.py")):

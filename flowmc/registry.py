@@ -89,6 +89,13 @@ class NodeType:
         return _param_ports(cls)
 
     @classmethod
+    def param_type(cls, name: str) -> str | None:
+        """The scalar type (Number, Bool, Text) a param declares, fixed params included; None when the
+        param is not scalar (a list, a table) or does not exist."""
+        field = cls.Params.model_fields.get(name)
+        return None if field is None else _scalar_port_type(field.annotation)
+
+    @classmethod
     def dynamic_ports(cls) -> bool:
         """True when the class (or a base below NodeType) overrides ``ports``."""
         return any("ports" in vars(c) for c in cls.__mro__ if c is not NodeType and issubclass(c, NodeType))
@@ -281,6 +288,7 @@ class Registry:
         self._origins: dict[str, str] = {}
         self.library = library
         self.failures: dict[str, str] = {}  # where (a module, an entry point, a folder) -> what went wrong
+        self.node_folders: list[Path] = []  # folders of node files loaded (another process rebuilds from them)
         self._generation = next(_generations)
         self._pending: list[Loader] = []  # deferred sources not loaded yet, in the order given
         self._by_id: dict[str, Loader] = {}  # type ids a deferred source says it holds
@@ -353,6 +361,7 @@ class Registry:
             self._load_all()
             other = Registry(library=self.library)
             other._types, other._origins, other.failures = dict(self._types), dict(self._origins), dict(self.failures)
+            other.node_folders = list(self.node_folders)
             return other
 
     def __contains__(self, type_id: object) -> bool:

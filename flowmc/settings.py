@@ -1,5 +1,5 @@
 """Settings given from outside a graph file: ``NODE.PARAM=VALUE`` changes a stored param, ``NAME=VALUE``
-gives an interface input. Text is typed by the port it reaches.
+gives an interface input. Text is typed by the type the param or input declares.
 
 ``flowmc run --set/--input`` and every sweep axis use these rules, so a sweep variant means exactly
 what ``flowmc run`` with the same settings means.
@@ -22,7 +22,8 @@ class UsageError(FlowmcError):
 
 
 def parse_value(port_type: str | None, text: str, what: str) -> Any:
-    """Turn command-line text into a value for a port type (None: any JSON, else the text).
+    """Turn command-line text into a value for a port type (None: a param that is not scalar, read as
+    JSON, else the text).
 
     >>> parse_value("Number", "3", "--input n"), parse_value("Number", "2.5", "--input n")
     (3, 2.5)
@@ -114,8 +115,7 @@ def param_target(graph: Any, name: str, what: str, registry: Any) -> Target:
     for inp in graph.interface.inputs if graph.interface else ():
         if name in inp.to:
             raise UsageError(f"{what}: that param is fed by the graph input {inp.name!r}; set {inp.name} instead")
-    port_types = {p.name: p.types[0] for p in cls.param_ports()}
-    return Target(name, port_types.get(param), node_id, param)
+    return Target(name, cls.param_type(param), node_id, param)
 
 
 def input_target(graph: Any, name: str, what: str) -> Target:

@@ -71,8 +71,7 @@ def sweep_main(args: Any, registry: Any) -> int:
     folder = Path(args.out) if args.out else Path(Path(args.graph).name.removesuffix(".json").removesuffix(".flowmc")
                                                     + "-sweep")
     ship = args.ship if args.ship is not None else bool(args.scheduler)
-    sweep = Sweep(graph, axes, devices=args.devices, ship=ship, skip=(folder,), registry=registry,
-                  node_folders=tuple(getattr(args, "nodes", None) or ()))
+    sweep = Sweep(graph, axes, devices=args.devices, ship=ship, skip=(folder,), registry=registry)
     for note in sweep.safety.notes:
         print(f"note: {note}", file=sys.stderr)
     journal = Journal(folder, resume=args.resume, overwrite=args.overwrite)

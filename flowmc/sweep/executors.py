@@ -61,7 +61,7 @@ def _init_process(job: Job, ready: Any) -> None:
     global _process_job
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _process_job = job
-    warm_up()
+    warm_up(job.node_folders)
     ready.wait(_START_TIMEOUT)
 
 
@@ -176,7 +176,7 @@ class DaskExecutor:
             if not info:
                 raise FlowmcError("the Dask cluster has no workers", where=address or "LocalCluster")
             self.workers = sum(w.get("nthreads", 1) for w in info.values())
-            self.client.run(warm_up)
+            self.client.run(warm_up, job.node_folders)
             for resource in self._resources:
                 self._one_per_host(info, resource)
             self._job = self.client.scatter(job, broadcast=True, hash=False)

@@ -65,8 +65,9 @@ class Outcome:
 class Sweep:
     """``graph`` over ``axes`` with a device policy (``refuse`` or ``sim``, see ``flowmc.sweep.safety``).
     ``ship``: pack the graph's folder for workers that do not share this file system (``skip``: folders
-    left out of the pack, e.g. the results folder). Workers run with the default registry plus
-    ``node_folders`` (``--nodes``; the same paths must exist on them); ``registry`` checks the graph here."""
+    left out of the pack, e.g. the results folder). ``registry`` checks the graph here (default: the
+    default registry); workers rebuild it in their own process: the built-in nodes, installed plugins, and
+    the node folders it loaded plus ``node_folders`` (the same paths must exist on them)."""
 
     def __init__(self, graph: Graph, axes: list[Axis], *, devices: str = "refuse", ship: bool = False,
                  skip: tuple[Path, ...] = (), registry: Any = None, node_folders: tuple[str, ...] = ()):
@@ -90,9 +91,10 @@ class Sweep:
         for name in self.safety.to_sim:
             targets.setdefault(name, target(graph, name, f"device {name}", registry))
         folder = graph.base_dir.resolve()
+        folders = dict.fromkeys(str(Path(f).expanduser().resolve())
+                                for f in (*getattr(registry, "node_folders", ()), *node_folders))
         self.job = Job(dumps(graph), str(folder), graph.path.name if graph.path is not None else None, targets,
-                       self.safety.to_sim, tuple(str(Path(f).resolve()) for f in node_folders),
-                       pack_folder(folder, skip) if ship else None)
+                       self.safety.to_sim, tuple(folders), pack_folder(folder, skip) if ship else None)
 
     @property
     def resources(self) -> tuple[str, ...]:

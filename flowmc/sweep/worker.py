@@ -122,11 +122,13 @@ _registry_lock = threading.Lock()
 
 
 def _registry(node_folders: tuple[str, ...]) -> Any:
-    """The default registry, or one with the sweep's node folders too (built once per process)."""
+    """The default registry when it holds the sweep's node folders, else one with them too (built once per
+    process)."""
     from flowmc.plugins import build_registry, default_registry
 
-    if not node_folders:
-        return default_registry()
+    default = default_registry()
+    if set(node_folders) <= {str(f) for f in default.node_folders}:
+        return default
     with _registry_lock:
         if node_folders not in _registries:
             _registries[node_folders] = build_registry(node_folders=node_folders)
@@ -185,10 +187,10 @@ def run_variant(job: Job, loaded: _Loaded, variant: Variant) -> dict[str, Any]:
     return row
 
 
-def warm_up() -> None:
-    """Build the default registry (importing every node module) before the first variant: worker
-    start-up, not a variant's time."""
-    _registry(())
+def warm_up(node_folders: tuple[str, ...] = ()) -> None:
+    """Build the registry (importing every node module) before the first variant: worker start-up, not a
+    variant's time."""
+    _registry(node_folders)
 
 
 def _worker_name() -> str:

@@ -1,5 +1,6 @@
-"""The Sweep tab: run the open graph over values of chosen front-panel controls, on worker processes or a
-Dask LocalCluster, with live progress and the plot when it ends.
+"""The Sweep tab: run the open graph over values of chosen front-panel controls, on worker processes, a
+Dask LocalCluster or a running Dask cluster (its scheduler address), with live progress and the plot
+when it ends. The workers use the editor's node types (its plugins and node folders).
 
 Each front-panel control (an interface input) gets a checkbox and a list of values, suggested from its
 bounds or choices (``0.01, 0.05`` or ranges ``start:stop:step``, as ``flowmc sweep --grid`` takes).
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
 __all__ = ["SweepPanel", "suggested_values"]
 
 _NONE = "(none)"
-_EXECUTORS = {"processes on this machine": "local", "Dask LocalCluster": "dask"}
+_EXECUTORS = {"processes on this machine": "local", "Dask": "dask"}
 
 
 def _fmt(value: float) -> str:
@@ -72,6 +73,7 @@ class SweepPanel:
         self.sweep: Any = None
         self.folder: Path | None = None
         self.plots: list[Any] = []
+        self.run_on: dict[str, Any] = {}  # where the sweep going runs: executor kind, address, workers
         gui.add_markdown("Run the graph over values of its front-panel controls (a, b, c or start:stop:step); "
                          "unticked controls keep their front-panel value.")
         self.controls_folder = gui.add_folder("Controls")
@@ -79,8 +81,14 @@ class SweepPanel:
             self.empty = gui.add_markdown("This graph declares no Number, Bool or Text inputs: add interface inputs "
                                           "to sweep them.", visible=False)
         with gui.add_folder("Where it runs", expand_by_default=False):
-            self.executor = gui.add_dropdown("Executor", tuple(_EXECUTORS), hint="Worker processes, or a Dask LocalCluster")
-            self.workers = gui.add_number("Workers", 2, min=1, max=64, step=1, hint="Worker processes")
+            self.executor = gui.add_dropdown("Executor", tuple(_EXECUTORS),
+                                             hint="Worker processes, or Dask: a LocalCluster, or the cluster at "
+                                                  "the scheduler address")
+            self.workers = gui.add_number("Workers", 2, min=1, max=64, step=1,
+                                          hint="Worker processes (not used with a scheduler address)")
+            self.address = gui.add_text("Dask scheduler", "", hint="A running Dask cluster, e.g. tcp://host:8786 "
+                                                              "(the graph's folder is shipped to its workers); "
+                                                              "empty: a LocalCluster")
             self.devices = gui.add_dropdown("Hardware devices", ("refuse", "sim"),
                                             hint="Device nodes that drive hardware: refuse the sweep, or run them "
                                                  "on the simulated card")
@@ -157,9 +165,14 @@ class SweepPanel:
                 axes.append(values_axis(graph, name, [fixed[name]], registry=registry))
         if not swept:
             raise FlowmcError("tick at least one control to sweep")
+        kind, address = _EXECUTORS[self.executor.value], self.address.value.strip()
+        if address and kind != "dask":
+            raise FlowmcError("a scheduler address goes with the Dask executor")
+        self.run_on = {"kind": kind, "address": address or None, "workers": int(self.workers.value)}
         self.folder = (graph.base_dir / f"{graph.path.name.removesuffix('.json').removesuffix('.flowmc')}-sweep"
                        if state.path is not None else Path(tempfile.mkdtemp(prefix="flowmc-sweep-")))
-        return Sweep(graph, axes, devices=self.devices.value, skip=(self.folder,), registry=registry), swept
+        return Sweep(graph, axes, devices=self.devices.value, ship=bool(address), skip=(self.folder,),
+                     registry=registry), swept
 
     def begin(self) -> threading.Thread | None:
         """Start the sweep in a thread of its own (returned); a problem is shown, and nothing runs."""
@@ -186,8 +199,8 @@ class SweepPanel:
         journal = None
         try:
             journal = Journal(self.folder, overwrite=True)
-            with open_executor(_EXECUTORS[self.executor.value], self.sweep.job, workers=int(self.workers.value),
-                               resources=self.sweep.resources) as executor:
+            with open_executor(self.run_on["kind"], self.sweep.job, workers=self.run_on["workers"],
+                               address=self.run_on["address"], resources=self.sweep.resources) as executor:
                 self.outcome = self.sweep.run(executor, journal, on_progress=self._show_progress,
                                               stop=self.stop_event)
             self._finish()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -40,6 +41,37 @@ def test_a_sweep_writes_csv_parquet_and_a_report(tmp_path):
     assert "variant 2 failed: node 'check'" in proc.stderr
     again = run_cli("sweep", graph, "--over", "gcode.file=programs/*.ngc", cwd=tmp_path)
     assert again.returncode == 2 and "holds the rows of an earlier sweep: --resume" in again.stderr
+
+
+def test_progress_shows_done_failed_left_and_the_rate(tmp_path):
+    """A tqdm bar on a terminal (a pseudo-terminal here), a plain line in logs."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    args = ["sweep", str(ARM), "--grid", "lookahead.tolerance=0.001,0.08", "--grid", "rule=blend,junction_deviation",
+            "--workers", "1"]
+    leader, follower = pty.openpty()
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))  # a 120-column terminal
+    proc = subprocess.Popen([sys.executable, "-m", "flowmc", *args, "--out", str(tmp_path / "tty")],
+                            stdout=subprocess.DEVNULL, stderr=follower, stdin=subprocess.DEVNULL)
+    os.close(follower)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(leader, 4096)
+        except OSError:  # the sweep ended and closed the terminal
+            break
+        if not chunk:
+            break
+        shown += chunk
+    os.close(leader)
+    assert proc.wait(timeout=60) == 1  # variant 0 fails the graph's check
+    text = shown.decode(errors="replace")
+    assert "4/4" in text and "done 3, failed 1, left 0" in text and "variant/s" in text, text
+    logged = run_cli(*args, "--out", tmp_path / "log")
+    assert re.search(r"\[4/4\] done 3, failed 1, left 0, [0-9.]+ variants/s", logged.stderr), logged.stderr
 
 
 @pytest.mark.parametrize("args, message", [

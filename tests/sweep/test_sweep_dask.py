@@ -10,10 +10,12 @@ import shutil
 import pyarrow.parquet as pq
 import pytest
 from distributed import LocalCluster
-from sweep_helpers import ARM, gcode_graph, run_alone
+from sweep_helpers import ARM, device_graph, gcode_graph, journal, run_alone, run_cli
 
 import flowmc
 from flowmc.sweep import Journal, Sweep, files_axis, flatten_outputs, grid_axis, open_executor, write_tables
+
+HARDWARE = "grbl:/dev/ttyUSB0"
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +51,13 @@ def test_rows_equal_flowmc_run_alone_and_failures_are_rows(cluster, tmp_path):
     assert [r["status"] for r in rows] == ["failed", "done", "done", "done"]
     assert "node 'check': check failed" in rows[0]["error"] and rows[0]["outputs"]["ratio"] > 0.68
     assert_same_as_run_alone(ARM, rows, tmp_path)
-    # each worker runs machine, path, stop-and-go and its 3D view once; after that they come from its cache
-    assert sum(r["cached"] == 4 and r["ran"] == 5 for r in rows) >= len(rows) - 2
+    # each worker runs machine, path, stop-and-go and its 3D view once (they do not depend on what is swept);
+    # after that they come from its cache
+    upstream = {"machine", "path", "stop_and_go", "view_stop_and_go"}
+    for worker in {r["worker"] for r in rows}:
+        mine = sorted((r for r in rows if r["worker"] == worker), key=lambda r: r["start"])
+        assert all(not upstream & set(r["executed"]) and r["cached"] >= len(upstream) for r in mine[1:]), mine
+        assert len({r["ran"] + r["cached"] for r in mine}) == 1  # every node ran or came from the cache
     assert (outcome.done, outcome.failed, outcome.left) == (3, 1, 0)
     assert (progress[0].left, progress[-1].left, progress[-1].done, progress[-1].failed) == (4, 0, 3, 1)
     # the tables hold the same numbers, flattened
@@ -83,9 +90,39 @@ def test_a_folder_of_programs_shipped_to_the_workers(cluster, tmp_path, monkeypa
     assert_same_as_run_alone(graph_path, rows, tmp_path)
 
 
-def test_linuxcnc_runs_go_to_one_worker_per_host(cluster, tmp_path):
-    from sweep_helpers import device_graph
+def test_device_nodes_start_on_the_simulated_card_as_flowmc_run_starts_them(cluster, tmp_path):
+    """Device nodes prepare a job and only a Start moves: a sweep's variant is the prepare and the Start that
+    ``flowmc run`` makes, on the simulated card. A graph on ``sim``; one on hardware under ``--devices sim``
+    (its lone run: ``--set card.device=sim``); the same sweep again on the same workers (jobs their
+    long-lived runtimes started before) gives the same rows; ``--devices refuse`` still refuses."""
+    grid = ("plan.tolerance=0.01,0.1", "path.feed=20,50")
+    sim_path = device_graph(tmp_path / "sim", "sim")
+    graph = flowmc.load(sim_path)
+    sweep = Sweep(graph, [grid_axis(graph, g) for g in grid])
+    sweep_on(cluster, sweep, tmp_path / "sim-out")
+    rows = sorted(Journal(tmp_path / "sim-out", resume=True).rows.values(), key=lambda r: r["variant"])
+    assert [(r["status"], r["outputs"]["log"]["outcome"]) for r in rows] == [("done", "done")] * 4  # it moved
+    assert_same_as_run_alone(sim_path, rows, tmp_path)
+    sweep_on(cluster, sweep, tmp_path / "again")
+    again = sorted(Journal(tmp_path / "again", resume=True).rows.values(), key=lambda r: r["variant"])
+    assert [r["outputs"] for r in again] == [r["outputs"] for r in rows]
 
+    hw_path = device_graph(tmp_path / "hw", HARDWARE)
+    refused = run_cli("sweep", hw_path, "--grid", grid[1], "--out", tmp_path / "refused")
+    assert refused.returncode == 2 and f"device '{HARDWARE}' moves hardware" in refused.stderr
+    assert not (tmp_path / "refused").exists()
+    proc = run_cli("sweep", hw_path, "--grid", grid[1], "--devices", "sim", "--workers", "2", "--out", tmp_path / "hw-out")
+    assert proc.returncode == 0, proc.stderr
+    assert f"node 'card': {HARDWARE} -> simulated card (--devices sim)" in proc.stderr
+    rows = journal(tmp_path / "hw-out")
+    assert len(rows) == 2 and {r["outputs"]["log"]["device"] for r in rows} == {"sim"}
+    for row in rows:
+        alone = run_alone(hw_path, {**row["params"], "card.device": "sim"}, tmp_path / f"hw{row['variant']}.json")
+        assert (row["status"], row["error"]) == ("done", "") and alone["ok"]
+        assert json.loads(json.dumps(row["outputs"])) == alone["outputs"], row["params"]
+
+
+def test_linuxcnc_runs_go_to_one_worker_per_host(cluster, tmp_path):
     graph = flowmc.load(device_graph(tmp_path, "sim"))
     sweep = Sweep(graph, [grid_axis(graph, "plan.tolerance=0.01:0.06:0.01")])
     with open_executor("dask", sweep.job, address=cluster.scheduler_address, resources=("linuxcnc",)) as ex:

@@ -5,12 +5,14 @@ from __future__ import annotations
 import re
 
 import pytest
-from sweep_helpers import ARM, gcode_graph
+from sweep_helpers import ARM, PROGRAMS, gcode_graph
 
 import flowmc
 from flowmc.settings import UsageError
+from flowmc.sweep import Sweep
 from flowmc.sweep.batches import batch_size, batches, upstream_first
 from flowmc.sweep.variants import files_axis, grid_axis, table_axis, variants
+from flowmc.sweep.worker import run_batch
 
 
 @pytest.fixture(scope="module")
@@ -33,6 +35,25 @@ def test_ranges_include_their_stop_and_read_cleanly(arm):
     assert values(grid_axis(arm, "lookahead.tolerance=0.1:0.3:0.1,1")) == [0.1, 0.2, 0.3, 1]
     assert values(grid_axis(arm, "check.max=1:7:3")) == [1, 4, 7]
     assert values(grid_axis(arm, "check.max=5:1:-2")) == [5, 3, 1]
+
+
+def test_fixed_params_are_typed_by_their_declared_type(tmp_path):
+    """A fixed Text param (a file name) stays text whatever it looks like; a fixed Number param is a number."""
+    graph = flowmc.load(gcode_graph(tmp_path))
+    assert values(grid_axis(graph, "gcode.file=12,true,null,[1]")) == ["12", "true", "null", "[1]"]
+    (tmp_path / "t.csv").write_text("gcode.file\n12\n")
+    assert values(table_axis(graph, tmp_path / "t.csv")) == ["12"]
+    (tmp_path / "12").write_text(PROGRAMS["a_square.ngc"])
+    sweep = Sweep(graph, [grid_axis(graph, "gcode.file=12,programs/a_square.ngc")])
+    first, second = run_batch(sweep.job, sweep.variants)  # the worker's own code, in this process
+    assert (first["status"], first["error"]) == ("done", "")
+    assert first["outputs"] == second["outputs"]  # the same program under either name
+    joined = flowmc.GraphBuilder()
+    joined.add("path.join", id="join")
+    join = joined.build()
+    assert values(grid_axis(join, "join.count=2,3")) == [2, 3]
+    with pytest.raises(UsageError, match="'two' is not a number"):
+        grid_axis(join, "join.count=two")
 
 
 @pytest.mark.parametrize("spec, message", [

@@ -4,6 +4,7 @@ stop, refusal, and the plot, driven through its viser handles and shown in a rea
 from __future__ import annotations
 
 import csv
+import os
 import shutil
 from pathlib import Path
 
@@ -119,6 +120,81 @@ def test_hardware_devices_are_refused_in_the_panel(tmp_path):
         assert "node 'card': device 'grbl:/dev/ttyUSB0' moves hardware" in unescape_md(ed.sweep_panel.status.content)
     finally:
         ed.close()
+
+
+SCALE_NODE = """
+from pydantic import BaseModel, ConfigDict, Field
+from flowmc.registry import In, NodeType, Out, register
+
+class ScaleParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    factor: float = Field(2.0, gt=0)
+
+@register
+class Scale(NodeType):
+    type_id, title, category = "panel.scale", "Scale", "Path"
+    description = "Scale a path about the origin."
+    Params = ScaleParams
+    inputs, outputs = (In("path", "Path", doc="Path"),), (Out("path", "Path", doc="Scaled path"),)
+    def run(self, ctx, params, path):
+        return {"path": path.scaled(params.factor)}
+"""
+
+
+def test_the_workers_use_the_editors_node_folders(tmp_path, monkeypatch):
+    """An editor started with ``--nodes DIR`` sweeps a graph of that folder's node types (the worker
+    processes start fresh, so they must load the folder too)."""
+    from flowmc import plugins
+
+    folder = tmp_path / "nodes"
+    folder.mkdir()
+    (folder / "scale.py").write_text(SCALE_NODE, encoding="utf-8")
+    registry = plugins.default_registry().copy()
+    assert plugins.add_node_folder(registry, folder) == ["panel.scale"], registry.failures
+    monkeypatch.setattr(plugins, "_default", registry)  # what `flowmc serve --nodes DIR` leaves (this process only)
+    g = flowmc.GraphBuilder()
+    pts = g.add("path.polyline", id="pts", points=[(0, 0, 0), (10, 0, 0)], feed=10.0)
+    scale = g.add("panel.scale", id="scale")
+    measure = g.add("path.measure", id="measure")
+    g.wire(pts.path, scale.path)
+    g.wire(scale.path, measure.path)
+    g.input("factor", "Number", scale.factor, default=2.0)
+    g.output("length", "Number", measure.length)
+    g.save(tmp_path / "part.flowmc.json")
+    ed = Editor(tmp_path / "part.flowmc.json", port=0)
+    try:
+        panel = ed.sweep_panel
+        panel.controls["factor"][1].value = "1, 3"
+        panel.workers.value = 1
+        panel.begin().join(180)
+        assert [(r["status"], r["error"]) for r in panel.outcome.rows] == [("done", "")] * 2
+        assert [r["out.length"] for r in panel.outcome.rows] == pytest.approx([10.0, 30.0])
+    finally:
+        ed.close()
+
+
+def test_a_sweep_on_a_running_dask_cluster(tol_editor, tmp_path):
+    """The scheduler address of a running cluster: the rows come from its workers (the graph's folder is
+    shipped to them)."""
+    from distributed import Client, LocalCluster
+
+    panel = tol_editor.sweep_panel
+    panel.controls["rule"][0].value = False
+    panel.controls["tol"][0].value = True
+    panel.controls["tol"][1].value = "0.02, 0.1"
+    panel.address.value = "tcp://127.0.0.1:1"
+    panel.begin()
+    assert "goes with the Dask executor" in unescape_md(panel.status.content) and panel.thread is None
+    panel.executor.value = "Dask"
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        panel.address.value = cluster.scheduler_address
+        panel.begin().join(180)
+        pids = set(client.run(os.getpid).values())
+    rows = panel.outcome.rows
+    assert [(r["status"], r["tol"]) for r in rows] == [("done", 0.02), ("done", 0.1)]
+    assert {int(r["worker"].rpartition(":")[2]) for r in rows} == pids
+    assert panel.sweep.job.shipped is not None
 
 
 @pytest.mark.browser
