@@ -38,16 +38,19 @@ def format_mm(value: float, decimals: int = 6) -> str:
 
 
 def path_to_gcode(path: Path, *, decimals: int = 6, blend_tolerance: float | None = None,
-                  chord_tolerance: float = 0.001, program_end: bool = True, comment: str | None = None) -> str:
+                  chord_tolerance: float = 0.001, program_end: bool = True, comment: str | None = None,
+                  events: str = "codes") -> str:
     """A Path as G-code text that ``parse_gcode`` (and LinuxCNC) read back as the same moves.
 
     Coordinates are printed with ``decimals`` places (mm); arcs read back need their end within
     0.0001 mm of their circle, so keep ``decimals`` >= 5 for paths with arcs. ``blend_tolerance``
     (mm) adds ``G64 P<tol>`` (LinuxCNC's path blending); without it nothing about blending is said.
     Ellipses, and NURBS other than single XY Bezier spans (G5/G5.1), become G1 chords within
-    ``chord_tolerance`` mm. A path that does not
-    start at X0 Y0 Z0 (where a reader starts) begins with a G0 to its start, and a gap between two
-    segments becomes a G0 as well. ``comment`` adds a first line ``(comment)``.
+    ``chord_tolerance`` mm. A path that does not start at X0 Y0 Z0 (where a reader starts) begins
+    with a G0 to its start, and a gap between two segments becomes a G0 as well. ``comment`` adds a
+    first line ``(comment)``. ``events``: "codes" writes path events as the codes that make them (M0,
+    M1, M60, T.. M6, a rotary G0); "dwells" as zero-second G4 dwells, for a machine that is to run
+    the path straight through.
     """
     if not isinstance(path, Path):
         raise GcodeError(f"expected a Path, got {type(path).__name__}", where="G-code out")
@@ -55,6 +58,8 @@ def path_to_gcode(path: Path, *, decimals: int = 6, blend_tolerance: float | Non
         raise GcodeError(f"decimals must be a whole number from 1 to 12, got {decimals!r}", where="G-code out")
     if not chord_tolerance > 0:
         raise GcodeError(f"chord tolerance must be > 0 mm, got {chord_tolerance}", where="G-code out")
+    if events not in ("codes", "dwells"):
+        raise GcodeError(f"events must be 'codes' or 'dwells', got {events!r}", where="G-code out")
     out: list[str] = []
     if comment:
         out.append("(" + re.sub(r"[()\n\r]", " ", comment) + ")")
@@ -63,7 +68,7 @@ def path_to_gcode(path: Path, *, decimals: int = 6, blend_tolerance: float | Non
         if not (blend_tolerance >= 0 and math.isfinite(blend_tolerance)):
             raise GcodeError(f"blend tolerance must be >= 0 mm, got {blend_tolerance}", where="G-code out")
         out.append(f"G64 P{format_mm(blend_tolerance, decimals)}")
-    w = _Writer(out, decimals)
+    w = _Writer(out, decimals, events == "codes")
     for i, seg in enumerate(path.segments):
         w.segment(seg, i, chord_tolerance)
     if program_end:
@@ -75,9 +80,10 @@ class _Writer:
     """Keeps what a reader of the text so far would have in force: position (as printed), plane,
     feed, spindle - so each line says only what changes."""
 
-    def __init__(self, out: list[str], decimals: int):
+    def __init__(self, out: list[str], decimals: int, event_codes: bool = True):
         self.out = out
         self.d = decimals
+        self.event_codes = event_codes
         self.pos = ["0", "0", "0"]
         self.plane = 2
         self.feed: str | None = None
@@ -123,9 +129,9 @@ class _Writer:
         self.gap_to(seg.start)
         if isinstance(seg, Dwell):
             self.state(seg, True, where)
-            if seg.seconds > 0 or seg.event is None:
+            if seg.seconds > 0 or seg.event is None or not self.event_codes:
                 self.out.append(f"G4 P{self.num(seg.seconds)}")
-            if seg.event is not None:
+            if seg.event is not None and self.event_codes:
                 self.event(seg.event)
             return
         self.state(seg, False, where)

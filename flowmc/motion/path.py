@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import FrozenInstanceError, dataclass, field
 from functools import cached_property
-from typing import Iterable, Sequence
+from typing import Iterable, Sequence, TypeVar
 
 import numpy as np
 
 import flowmc.budget as budget
 from flowmc.errors import PathError
+from flowmc.motion.path_columns import ARC, CURVE, DWELL, LINE, PLANES, PathColumns
 from flowmc.motion.values import array_digest, frozen_array
 
 __all__ = [
@@ -34,10 +35,6 @@ __all__ = [
     "chord_count",
     "describe_segment",
 ]
-
-#: Arc planes by their normal axis index, as G17/G18/G19 name them. Plane coordinates (u, v) are
-#: ordered so that ccw in (u, v) is a right-handed turn about the normal axis (RS274/NGC's rule).
-PLANES = {2: ("XY", (0, 1)), 1: ("XZ", (2, 0)), 0: ("YZ", (1, 2))}
 
 _RADIUS_TOL = 1e-4  # mm: start and end radii closer than this make a circular arc
 # An arc whose end radius differs more is a spiral, as LinuxCNC cuts it (the radius blends along the
@@ -650,58 +647,208 @@ def _rotation_z(degrees: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-@dataclass(frozen=True, eq=False)
-class Path:
-    """An ordered, immutable list of segments. Consecutive segments should join end to start."""
+_S = TypeVar("_S", bound=Segment)
 
-    segments: tuple[Segment, ...] = ()
+
+def _trusted(cls: type[_S], fields: dict, **more) -> _S:
+    """A segment from fields already checked (a column row, a checked chain of points), without
+    re-running its constructor's checks."""
+    seg = object.__new__(cls)
+    seg.__dict__.update(fields, **more)
+    return seg
+
+
+def _segment_at(cols: PathColumns, k: int) -> Segment:
+    """Row ``k`` of the columns as a Segment object (a curve row is its stored object)."""
+    kind = int(cols.kind[k])
+    if kind == CURVE:
+        return cols.curves[k]
+    fields = {"feed": float(cols.feed[k]), "rapid": bool(cols.rapid[k]), "tool_down": bool(cols.tool_down[k]),
+              "spindle": float(cols.spindle[k]), "outputs": cols.outputs.get(k, ()),
+              "analog": cols.analog.get(k, ()), "source": cols.names[k], "start": cols.start[k]}
+    if kind == LINE:
+        return _trusted(Line, fields, end=cols.end[k])
+    if kind == ARC:
+        return _trusted(Arc, fields, end=cols.end[k], center=cols.center[k], normal_axis=int(cols.normal_axis[k]),
+                        ccw=bool(cols.ccw[k]), turns=int(cols.turns[k]))
+    return _trusted(Dwell, fields, end=cols.start[k], seconds=float(cols.seconds[k]), event=cols.events.get(k))
+
+
+def _segments_of(cols: PathColumns) -> tuple[Segment, ...]:
+    """Every row as a Segment object: ``_segment_at`` for all rows, with the columns read once."""
+    starts, ends, centers = list(cols.start), list(cols.end), list(cols.center)
+    feed, rapid, tool, spindle = (cols.feed.tolist(), cols.rapid.tolist(), cols.tool_down.tolist(),
+                                  cols.spindle.tolist())
+    normal, ccw, turns, seconds = (cols.normal_axis.tolist(), cols.ccw.tolist(), cols.turns.tolist(),
+                                   cols.seconds.tolist())
+    names, outputs, analog, events = cols.names, cols.outputs, cols.analog, cols.events
+    out = []
+    for k, kind in enumerate(cols.kind.tolist()):
+        if kind == CURVE:
+            out.append(cols.curves[k])
+            continue
+        fields = {"feed": feed[k], "rapid": rapid[k], "tool_down": tool[k], "spindle": spindle[k],
+                  "outputs": outputs.get(k, ()), "analog": analog.get(k, ()), "source": names[k], "start": starts[k]}
+        if kind == LINE:
+            out.append(_trusted(Line, fields, end=ends[k]))
+        elif kind == ARC:
+            out.append(_trusted(Arc, fields, end=ends[k], center=centers[k], normal_axis=normal[k], ccw=ccw[k],
+                                turns=turns[k]))
+        else:
+            out.append(_trusted(Dwell, fields, end=starts[k], seconds=seconds[k], event=events.get(k)))
+    return tuple(out)
+
+
+def _number(value) -> float:
+    """A feed or spindle value as a float column entry; NaN for what is not a real number (a planner
+    then refuses it, naming the segment)."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)):
+        return float(value)
+    return math.nan
+
+
+def columns_of(segments: Sequence[Segment]) -> PathColumns:
+    """Segment objects as columns (what a planner reads); curves other than arcs stay objects."""
+    n = len(segments)
+    kinds = {Line: LINE, Arc: ARC, Dwell: DWELL}
+    kind = np.array([kinds.get(type(seg), CURVE) for seg in segments], dtype=np.int8)
+    start = np.array([seg.start for seg in segments], dtype=float).reshape(n, 3)
+    end = np.array([seg.end for seg in segments], dtype=float).reshape(n, 3)
+    center = np.zeros((n, 3))
+    normal = np.full(n, 2, dtype=np.int8)
+    ccw = np.ones(n, dtype=bool)
+    turns = np.zeros(n, dtype=np.int64)
+    seconds = np.zeros(n)
+    events, outputs, analog, curves = {}, {}, {}, {}
+    for k, seg in enumerate(segments):
+        if isinstance(seg, Arc):
+            center[k], normal[k], ccw[k], turns[k] = seg.center, seg.normal_axis, seg.ccw, seg.turns
+        elif isinstance(seg, Dwell):
+            seconds[k] = seg.seconds
+            if seg.event is not None:
+                events[k] = seg.event
+        elif kind[k] == CURVE:
+            curves[k] = seg
+        if seg.outputs:
+            outputs[k] = seg.outputs
+        if seg.analog:
+            analog[k] = seg.analog
+    return PathColumns(
+        kind=kind, start=start, end=end, feed=np.array([_number(seg.feed) for seg in segments]).reshape(n),
+        rapid=np.array([bool(seg.rapid) for seg in segments], dtype=bool).reshape(n),
+        tool_down=np.array([bool(seg.tool_down) for seg in segments], dtype=bool).reshape(n),
+        spindle=np.array([_number(seg.spindle) for seg in segments]).reshape(n), center=center, normal_axis=normal,
+        ccw=ccw, turns=turns, seconds=seconds, files=tuple(seg.source or "" for seg in segments),
+        file=np.arange(n, dtype=np.int64), line=np.full(n, -1, dtype=np.int64), events=events, outputs=outputs,
+        analog=analog, curves=curves)
+
+
+class Path:
+    """An ordered, immutable list of segments. Consecutive segments should join end to start.
+
+    A path is held either as Segment objects (what most sources build) or as columns
+    (``Path.from_columns``: what the G-code reader builds, 100k moves without 100k objects). Both
+    behave the same; ``path.columns`` is the column form (made once from objects when asked),
+    ``path.segments`` the objects (made once from columns when asked), ``path[i]`` one segment.
+    """
+
+    _cols: PathColumns | None
 
     def __init__(self, segments: Iterable[Segment] = ()):
         segs = tuple(segments)
         for i, seg in enumerate(segs):
             if not isinstance(seg, Segment):
                 raise PathError(f"{describe_segment(i)} is a {type(seg).__name__}, not a path segment")
-        object.__setattr__(self, "segments", segs)
+        self.__dict__.update(segments=segs, _cols=None)
+
+    @classmethod
+    def from_columns(cls, columns: PathColumns) -> "Path":
+        """A path over columns whose rows the caller has checked (a reader's output)."""
+        path = cls.__new__(cls)
+        path.__dict__.update(_cols=columns)
+        return path
+
+    def __setattr__(self, name, value):
+        raise FrozenInstanceError(f"cannot assign to field {name!r}")
+
+    def __repr__(self) -> str:
+        return f"Path({len(self)} segments)"
+
+    @cached_property
+    def segments(self) -> tuple[Segment, ...]:
+        cols = self._cols
+        assert cols is not None  # an object path's segments are set by __init__
+        return _segments_of(cols)
+
+    @cached_property
+    def columns(self) -> PathColumns:
+        """The path as columns, one row per segment (see PathColumns)."""
+        return self._cols if self._cols is not None else columns_of(self.segments)
 
     def __len__(self) -> int:
-        return len(self.segments)
+        return len(self._cols) if self._cols is not None else len(self.segments)
 
     def __iter__(self):
         return iter(self.segments)
 
     def __getitem__(self, i):
+        if self._cols is not None and "segments" not in self.__dict__ and isinstance(i, (int, np.integer)):
+            n = len(self._cols)
+            if not -n <= i < n:
+                raise IndexError("path segment index out of range")
+            return _segment_at(self._cols, int(i) % n)
         return self.segments[i]
+
+    def __getstate__(self):
+        return {"segments": self.segments} if self._cols is None else {"_cols": self._cols}
+
+    def __setstate__(self, state):
+        self.__dict__.update({"_cols": None, **state})
+
+    def kind_counts(self) -> dict[str, int]:
+        """How many segments of each kind (``{"arc": 3, "line": 10}``), kinds in name order."""
+        if self._cols is not None:
+            return self._cols.kind_counts()
+        return {k: sum(s.kind == k for s in self.segments) for k in sorted({s.kind for s in self.segments})}
 
     def events(self) -> tuple[tuple[int, PathEvent], ...]:
         """``(segment index, event)`` for every segment carrying a PathEvent, in order: the pauses
         and tool changes a job stops for (see ``PathEvent``)."""
+        if self._cols is not None:
+            return tuple(sorted(self._cols.events.items()))
         return tuple((i, seg.event) for i, seg in enumerate(self.segments)
                      if isinstance(seg, Dwell) and seg.event is not None)
 
     def segment_names(self) -> tuple[str, ...]:
         """Each segment's ``source`` ("" where it has none): what a Trajectory or Steps planned from this
         path carries as ``segment_names``, so messages can say ``segment 5 (row 4)``."""
+        if self._cols is not None:
+            return self._cols.names
         return tuple(seg.source or "" for seg in self.segments)
 
     def segment_rapid(self) -> tuple[bool, ...]:
         """Each segment's rapid flag: what a Trajectory or Steps planned from this path carries as
         ``segment_rapid``, so a job's rapid override knows which moves are rapids."""
+        if self._cols is not None:
+            return tuple(self._cols.rapid.tolist())
         return tuple(bool(seg.rapid) for seg in self.segments)
 
     @property
     def start(self) -> np.ndarray:
-        if not self.segments:
+        if not len(self):
             raise PathError("the path is empty")
-        return self.segments[0].start
+        return self._cols.start[0] if self._cols is not None else self.segments[0].start
 
     @property
     def end(self) -> np.ndarray:
-        if not self.segments:
+        if not len(self):
             raise PathError("the path is empty")
-        return self.segments[-1].end
+        return self._cols.end[-1] if self._cols is not None else self.segments[-1].end
 
     @cached_property
     def lengths(self) -> np.ndarray:
+        if self._cols is not None:
+            return self._cols.lengths
         return frozen_array([seg.length for seg in self.segments])
 
     @property
@@ -710,6 +857,10 @@ class Path:
 
     def gaps(self, tol: float = 1e-6) -> list[int]:
         """Indices i where segment i does not start at the end of segment i-1."""
+        if self._cols is not None:
+            cols = self._cols
+            jump = np.linalg.norm(cols.start[1:] - cols.end[:-1], axis=1)
+            return (np.flatnonzero(jump > tol) + 1).tolist()
         return [i for i in range(1, len(self.segments))
                 if np.linalg.norm(self.segments[i].start - self.segments[i - 1].end) > tol]
 
@@ -719,8 +870,10 @@ class Path:
         The first point is the path's start; every later point belongs to the segment it ends. A
         segment's first point is dropped only where it repeats the previous segment's last point.
         """
-        if not self.segments:
+        if not len(self):
             return np.zeros((0, 3)), np.zeros(0, dtype=int)
+        if self._cols is not None:
+            return self._cols.sample(tol)
         chunks, index = [], []
         last, total = None, 0
         for i, seg in enumerate(self.segments):
@@ -812,22 +965,18 @@ class Path:
     # Runtime protocol ------------------------------------------------------------------------
     @cached_property
     def _digest(self) -> str:
-        parts = []
-        for seg in self.segments:
-            parts.extend(seg.digest_parts())
-        return array_digest("Path", len(self.segments), *parts)
+        return _columns_digest(self.columns)
 
     def digest(self) -> str:
         return self._digest
 
     def summary(self) -> dict:
-        out: dict = {"type": "Path", "segments": len(self.segments), "length_mm": round(self.length, 6)}
-        if self.segments:
+        out: dict = {"type": "Path", "segments": len(self), "length_mm": round(self.length, 6)}
+        if len(self):
             lo, hi = self.bbox()
             out.update(start=self.start.round(6).tolist(), end=self.end.round(6).tolist(),
                        bbox_min=lo.round(4).tolist(), bbox_max=hi.round(4).tolist(),
-                       kinds={k: sum(s.kind == k for s in self.segments)
-                              for k in sorted({s.kind for s in self.segments})})
+                       kinds=self.kind_counts())
             events = self.events()
             if events:
                 out["events"] = [{"segment": i + 1, **event.describe()} for i, event in events]
@@ -843,3 +992,13 @@ class Path:
             pts = np.column_stack([pts, np.zeros(len(pts))])
         return Path(Line(a, b, feed=feed, source=state.pop("source", f"point {i + 1}"), **state)
                     for i, (a, b) in enumerate(zip(pts[:-1], pts[1:])))
+
+
+def _columns_digest(cols: PathColumns) -> str:
+    """The content hash of a column path: every column but the sources, as segment digests leave them out."""
+    arc = cols.kind == ARC
+    sparse = [sorted(d.items()) for d in (cols.events, cols.outputs, cols.analog)]
+    curves = [(k, *c.digest_parts()) for k, c in sorted(cols.curves.items())]
+    return array_digest("Path", len(cols), cols.kind, cols.start, cols.end, cols.feed, cols.rapid, cols.tool_down,
+                        cols.spindle, cols.center[arc], cols.normal_axis[arc], cols.ccw[arc], cols.turns[arc],
+                        cols.seconds, *sparse, *curves)

@@ -24,7 +24,12 @@ import numpy as np
 from flowmc.errors import PlanningError
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
-from flowmc.motion.path import PLANES, Arc, Dwell, Line, Path, describe_segment
+from flowmc.motion.path import Path, describe_segment
+from flowmc.motion.path_columns import ARC as ARC_ROW
+from flowmc.motion.path_columns import CURVE as CURVE_ROW
+from flowmc.motion.path_columns import DWELL as DWELL_ROW
+from flowmc.motion.path_columns import LINE as LINE_ROW
+from flowmc.motion.path_columns import PathColumns
 
 __all__ = ["LINE", "ARC", "CURVE", "DWELL", "REVERSAL", "Pieces", "build_pieces", "corner_angle"]
 
@@ -76,7 +81,7 @@ class Pieces:
     t_start: np.ndarray
     t_end: np.ndarray
     stop_after: np.ndarray
-    segments: tuple
+    segments: Path  # the planned path: ``segments[g]`` is segment g (curve pieces evaluate through it)
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -109,56 +114,54 @@ class Pieces:
         return out
 
 
-_FIELDS = ("kind", "seg", "length", "origin", "u", "e2", "w", "radius", "phi0", "sweep", "rise", "seg_s0",
-           "kappa", "vmax", "accel", "jerk", "dwell", "t_start", "t_end")
-_ZERO3 = (0.0, 0.0, 0.0)
+_VEC = ("origin", "u", "e2", "w", "t_start", "t_end")
+_FLT = ("length", "radius", "phi0", "sweep", "rise", "seg_s0", "kappa", "vmax", "accel", "jerk", "dwell")
 
 
-class _Rows:
-    """Collects piece rows as tuples in _FIELDS order; turned into arrays once."""
+class _Table:
+    """Piece columns of a known length, filled a kind at a time by row positions."""
 
-    def __init__(self):
-        self.rows: list[tuple] = []
-        self.stops: list[bool] = []
+    def __init__(self, n: int):
+        self.kind = np.zeros(n, dtype=np.int8)
+        self.seg = np.zeros(n, dtype=int)
+        self.cols = {name: np.zeros((n, 3)) for name in _VEC} | {name: np.zeros(n) for name in _FLT}
+        self.stops = np.zeros(n, dtype=bool)
 
-    def add(self, *, kind, seg, length, origin, u=_ZERO3, e2=_ZERO3, w=_ZERO3, radius=0.0, phi0=0.0, sweep=0.0,
-            rise=0.0, seg_s0=0.0, kappa=0.0, vmax=0.0, accel=0.0, jerk=0.0, dwell=0.0, t_start=_ZERO3,
-            t_end=_ZERO3):
-        self.rows.append((kind, seg, length, origin, u, e2, w, radius, phi0, sweep, rise, seg_s0, kappa, vmax,
-                          accel, jerk, dwell, t_start, t_end))
-        self.stops.append(False)
+    def put(self, rows, kind: int, seg, **fields) -> None:
+        self.kind[rows] = kind
+        self.seg[rows] = seg
+        for name, value in fields.items():
+            self.cols[name][rows] = value
 
-    def mark_stop(self):
-        if self.stops:
-            self.stops[-1] = True
-
-    def build(self, segments) -> Pieces:
-        cols = dict(zip(_FIELDS, zip(*self.rows)))
-        vec = lambda name: np.asarray(cols[name], dtype=float).reshape(-1, 3)  # noqa: E731
-        flt = lambda name: np.asarray(cols[name], dtype=float)  # noqa: E731
-        length = flt("length")
+    def build(self, path: Path) -> Pieces:
+        length = self.cols["length"]
         s0 = np.concatenate([[0.0], np.cumsum(length)[:-1]])
-        return Pieces(
-            kind=np.asarray(cols["kind"], dtype=np.int8), seg=np.asarray(cols["seg"], dtype=int), length=length,
-            s0=s0, origin=vec("origin"), u=vec("u"), e2=vec("e2"), w=vec("w"), radius=flt("radius"),
-            phi0=flt("phi0"), sweep=flt("sweep"), rise=flt("rise"), seg_s0=flt("seg_s0"), kappa=flt("kappa"),
-            vmax=flt("vmax"), accel=flt("accel"), jerk=flt("jerk"), dwell=flt("dwell"), t_start=vec("t_start"),
-            t_end=vec("t_end"), stop_after=np.asarray(self.stops, dtype=bool), segments=tuple(segments),
-        )
+        return Pieces(kind=self.kind, seg=self.seg, s0=s0, stop_after=self.stops, segments=path, **self.cols)
 
 
 def _check_axes(path: Path, cols: list[int], machine: Machine) -> None:
+    """PlanningError naming the first segment that moves along an axis the machine lacks: its end
+    points, 16 points along each arc and a curve's samples are held against the path's start."""
     missing = [k for k in range(3) if k not in cols]
     if not missing or not len(path):
         return
-    for i, seg in enumerate(path.segments):
-        pts = seg.sample(0.01)
-        moved = np.ptp(pts[:, missing], axis=0) > 1e-9 if len(pts) > 1 else np.zeros(len(missing), bool)
-        moved |= np.abs(pts[0, missing] - path.start[missing]) > 1e-9
-        if np.any(moved):
-            names = ", ".join("XYZ"[k] for k, m in zip(missing, moved) if m)
-            raise PlanningError(f"moves along {names}, which machine axes {machine.names} lack",
-                                where=describe_segment(i, seg.source))
+    columns = path.columns
+    origin = path.start[missing]
+    moved = (np.abs(columns.start[:, missing] - origin) > 1e-9) | (np.abs(columns.end[:, missing] - origin) > 1e-9)
+    geo = columns.arcs
+    if len(geo.rows):
+        arc = np.repeat(np.arange(len(geo.rows)), 17)
+        pts = geo.points(arc, np.tile(np.linspace(0.0, 1.0, 17), len(geo.rows)), columns)
+        off = (np.abs(pts[:, missing] - origin) > 1e-9).reshape(len(geo.rows), 17, len(missing)).any(axis=1)
+        moved[geo.rows] |= off
+    for k, curve in columns.curves.items():
+        moved[k] |= (np.abs(curve.sample(0.01)[:, missing] - origin) > 1e-9).any(axis=0)
+    hit = np.flatnonzero(moved.any(axis=1))
+    if len(hit):
+        i = int(hit[0])
+        names = ", ".join("XYZ"[k] for k, m in zip(missing, moved[i]) if m)
+        raise PlanningError(f"moves along {names}, which machine axes {machine.names} lack",
+                            where=describe_segment(i, path.segment_names()))
 
 
 @dataclass
@@ -178,14 +181,14 @@ class _Blends:
     jerk: np.ndarray
 
 
-def _blends(segs, is_line, u, lengths, feeds, tol: float | None, lim: PathLimits) -> _Blends:
+def _blends(cols: PathColumns, is_line, u, lengths, feeds, tol: float | None, lim: PathLimits) -> _Blends:
     """Trim d and radius R of the tangent arc at each line-line corner.
 
     R keeps the arc within ``tol`` of the corner point (R (1/cos(alpha/2) - 1) <= tol) and, with
     the sampling chord sagitta A T^2/8 added, within ``tol`` of the programmed lines. The trims at
     the two ends of a line are scaled down together when the line is too short for both.
     """
-    n = len(segs)
+    n = len(cols)
     u_in, u_out = u[:-1], u[1:]
     alpha = corner_angle(u_in, u_out)
     moved = (np.abs(u_in) + np.abs(u_out)) > 1e-12
@@ -195,7 +198,7 @@ def _blends(segs, is_line, u, lengths, feeds, tol: float | None, lim: PathLimits
     trim = np.zeros(n - 1)
     radius = np.zeros(n - 1)
     if tol is not None and n > 1:
-        same = np.array([a.tool_down == b.tool_down and a.spindle == b.spindle for a, b in zip(segs[:-1], segs[1:])])
+        same = (cols.tool_down[:-1] == cols.tool_down[1:]) & (cols.spindle[:-1] == cols.spindle[1:])
         sag = a_lim * period**2 / 8.0
         ok = is_line[:-1] & is_line[1:] & same & (alpha > 1e-7) & (alpha < REVERSAL) & (tol > sag)
         half = 0.5 * alpha[ok]
@@ -210,101 +213,136 @@ def _blends(segs, is_line, u, lengths, feeds, tol: float | None, lim: PathLimits
         radius[ok] = trim[ok] / np.tan(half)
     normal = u_out - np.einsum("ij,ij->i", u_in, u_out)[:, None] * u_in
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-    corner = np.array([seg.end for seg in segs[:-1]]).reshape(-1, 3)
+    corner = cols.end[:-1]
     center = corner - u_in * trim[:, None] + radius[:, None] * normal
     mid = np.cos(0.5 * alpha)[:, None] * u_in + np.sin(0.5 * alpha)[:, None] * normal
     return _Blends(trim, radius, center, normal, u_in, u_out, mid, alpha, v_lim, a_lim, j_lim)
 
 
+def _feeds(path: Path, cols: PathColumns) -> np.ndarray:
+    """Each segment's path-speed cap (inf for dwells); PlanningError naming the first bad feed."""
+    feeds = np.where(cols.kind == DWELL_ROW, math.inf, cols.feed)
+    bad = np.flatnonzero(~(feeds > 0) | np.isnan(feeds) | (np.isinf(feeds) & (cols.kind != DWELL_ROW)))
+    if len(bad):
+        i = int(bad[0])
+        seg = path[i]
+        segment_feed(seg, describe_segment(i, seg.source))
+        raise PlanningError(f"feed must be > 0 mm/s, got {seg.feed!r}", where=describe_segment(i, seg.source))
+    return feeds
+
+
 def build_pieces(path: Path, machine: Machine, blend_tol: float | None = None) -> Pieces:
     """Cut a path into pieces; with ``blend_tol`` (mm) round line-line corners by tangent arcs.
 
+    Works on the path's columns, every kind of piece at once (curves one segment at a time).
     Raises PlanningError naming the segment for gaps, bad feeds, or motion on axes the machine lacks.
     """
     lim = PathLimits.of(machine)
-    cols = list(lim.cols)
-    segs = path.segments
-    if not segs:
+    if not len(path):
         raise PlanningError("the path has no segments", where="path")
-    _check_axes(path, cols, machine)
+    cols = path.columns
+    _check_axes(path, list(lim.cols), machine)
     for i in path.gaps(1e-6):
         raise PlanningError(
-            f"starts at {np.round(segs[i].start, 6).tolist()} but the segment before ends at "
-            f"{np.round(segs[i - 1].end, 6).tolist()}", where=describe_segment(i, segs[i].source))
-    lengths = np.array([seg.length for seg in segs], dtype=float)
-    is_line = np.array([isinstance(seg, Line) for seg in segs]) & (lengths > _EPS_LEN)
-    feeds = np.array([math.inf if isinstance(seg, Dwell) else segment_feed(seg, describe_segment(i, seg.source))
-                      for i, seg in enumerate(segs)])
-    u = np.zeros((len(segs), 3))
-    if is_line.any():
-        ends = np.array([seg.end for seg in segs])
-        starts = np.array([seg.start for seg in segs])
-        u[is_line] = (ends[is_line] - starts[is_line]) / lengths[is_line, None]
+            f"starts at {np.round(cols.start[i], 6).tolist()} but the segment before ends at "
+            f"{np.round(cols.end[i - 1], 6).tolist()}", where=describe_segment(i, path.segment_names()))
+    n = len(cols)
+    lengths = np.asarray(cols.lengths, dtype=float)
+    kind = cols.kind
+    dwell = kind == DWELL_ROW
+    is_line = (kind == LINE_ROW) & (lengths > _EPS_LEN)
+    feeds = _feeds(path, cols)
+    u = np.zeros((n, 3))
+    u[is_line] = (cols.end[is_line] - cols.start[is_line]) / lengths[is_line, None]
     line_v, line_a, line_j = lim.along(u)
     line_v = np.minimum(line_v, feeds)
-    bl = _blends(segs, is_line, u, lengths, feeds, blend_tol, lim)
+    bl = _blends(cols, is_line, u, lengths, feeds, blend_tol, lim)
     trims = np.r_[0.0, bl.trim, 0.0]  # trims[i] at segment i's start, trims[i + 1] at its end
 
-    rows = _Rows()
-    for i, seg in enumerate(segs):
-        if i > 0 and (seg.tool_down != segs[i - 1].tool_down or seg.spindle != segs[i - 1].spindle):
-            rows.mark_stop()
-        if isinstance(seg, Dwell):
-            rows.mark_stop()
-            rows.add(kind=DWELL, seg=i, length=0.0, origin=seg.start, accel=1.0, jerk=1.0, dwell=seg.seconds)
-            rows.mark_stop()
-            continue
-        if lengths[i] <= _EPS_LEN:
-            continue
-        if trims[i] > 0:
-            _add_blend_half(rows, bl, i - 1, i, second=True)
-        if is_line[i]:
-            length = lengths[i] - trims[i] - trims[i + 1]
-            if length > _EPS_LEN:
-                rows.add(kind=LINE, seg=i, length=length, origin=seg.start + u[i] * trims[i], u=u[i],
-                         vmax=line_v[i], accel=line_a[i], jerk=line_j[i], t_start=u[i], t_end=u[i])
-        elif isinstance(seg, Arc):
-            _add_arc(rows, seg, i, feeds[i], lim)
-        else:
-            _add_curve(rows, seg, i, feeds[i], lim)
-        if trims[i + 1] > 0:
-            _add_blend_half(rows, bl, i, i, second=False)
-    rows.mark_stop()
-    if not rows.rows:
+    # Rows per segment, in order: a blend's second half, the body (a line, arc or curve pieces, or
+    # the dwell), a blend's first half. Segments of no length (and not dwells) have none.
+    active = dwell | (lengths > _EPS_LEN)
+    head = active & (trims[:-1] > 0)
+    tail = active & (trims[1:] > 0)
+    line_len = lengths - trims[:-1] - trims[1:]
+    body = np.zeros(n, dtype=np.int64)
+    body[dwell] = 1
+    body[is_line & (line_len > _EPS_LEN)] = 1
+    arc = active & (kind == ARC_ROW)
+    curve = active & (kind == CURVE_ROW)
+    body[arc] = np.minimum(_MAX_SUBPIECES, np.maximum(1, np.ceil(lengths[arc] / _ARC_PIECE))).astype(np.int64)
+    body[curve] = np.minimum(_MAX_SUBPIECES, np.maximum(1, np.ceil(lengths[curve] / _CURVE_PIECE))).astype(np.int64)
+    count = head + body + tail
+    first = np.cumsum(count) - count
+    total = int(count.sum())
+    if total == 0:
         raise PlanningError("the path does not move (every segment has zero length)", where="path")
-    return rows.build(segs)
+    table = _Table(total)
+
+    # Stops: after the last piece before a tool or spindle change and before a dwell; after a dwell; at the end.
+    change = np.zeros(n, dtype=bool)
+    change[1:] = (cols.tool_down[1:] != cols.tool_down[:-1]) | (cols.spindle[1:] != cols.spindle[:-1])
+    before = first[change | dwell]
+    table.stops[before[before > 0] - 1] = True
+    table.stops[first[dwell]] = True
+    table.stops[-1] = True
+
+    k = np.flatnonzero(head)
+    _put_blend_half(table, bl, first[k], k - 1, k, second=True)
+    k = np.flatnonzero(tail)
+    _put_blend_half(table, bl, first[k] + head[k] + body[k], k, k, second=False)
+    k = np.flatnonzero(dwell)
+    table.put(first[k], DWELL, k, origin=cols.start[k], accel=1.0, jerk=1.0, dwell=cols.seconds[k])
+    k = np.flatnonzero(is_line & (line_len > _EPS_LEN))
+    table.put(first[k] + head[k], LINE, k, length=line_len[k], origin=cols.start[k] + u[k] * trims[k, None], u=u[k],
+              vmax=line_v[k], accel=line_a[k], jerk=line_j[k], t_start=u[k], t_end=u[k])
+    _put_arcs(table, cols, np.flatnonzero(arc), first, body, feeds, lim)
+    for i in np.flatnonzero(curve).tolist():
+        _put_curve(table, first[i] + np.arange(body[i]), path[i], i, feeds[i], lim)
+    return table.build(path)
 
 
-def _add_blend_half(rows: _Rows, bl: _Blends, k: int, tag: int, *, second: bool):
-    """Half of the blend arc at junction k: the first half belongs to the segment before the corner."""
+def _put_blend_half(table: _Table, bl: _Blends, rows, k, tag, *, second: bool):
+    """Half of the blend arc at junctions k: the first half belongs to the segment before the corner."""
     half = 0.5 * bl.alpha[k]
-    rows.add(kind=ARC, seg=tag, length=bl.radius[k] * half, origin=bl.center[k], u=-bl.normal[k], e2=bl.u_in[k],
-             radius=bl.radius[k], phi0=half if second else 0.0, sweep=half, kappa=1.0 / bl.radius[k],
-             vmax=bl.vmax[k], accel=bl.accel[k], jerk=bl.jerk[k], t_start=bl.mid[k] if second else bl.u_in[k],
-             t_end=bl.u_out[k] if second else bl.mid[k])
+    table.put(rows, ARC, tag, length=bl.radius[k] * half, origin=bl.center[k], u=-bl.normal[k], e2=bl.u_in[k],
+              radius=bl.radius[k], phi0=half if second else 0.0, sweep=half, kappa=1.0 / bl.radius[k],
+              vmax=bl.vmax[k], accel=bl.accel[k], jerk=bl.jerk[k], t_start=bl.mid[k] if second else bl.u_in[k],
+              t_end=bl.u_out[k] if second else bl.mid[k])
 
 
-def _add_arc(rows, seg: Arc, i, feed, lim: PathLimits):
-    iu, iv = PLANES[seg.normal_axis][1]
-    e1, e2, w = np.eye(3)[iu], np.eye(3)[iv], np.eye(3)[seg.normal_axis]
-    r, sweep, rise = seg.radius, seg.sweep, seg.rise
-    pitch = rise / abs(sweep)
+def _put_arcs(table: _Table, cols: PathColumns, segs: np.ndarray, first, body, feeds, lim: PathLimits):
+    """Programmed arcs and helices cut into ``body`` pieces each, all arcs at once."""
+    if not len(segs):
+        return
+    geo = cols.arcs
+    which = np.searchsorted(geo.rows, segs)  # each arc segment's row in the arc geometry
+    eye = np.eye(3)
+    e1, e2, w = eye[geo.iu[which]], eye[geo.iv[which]], eye[geo.normal[which]]
+    r, sweep, rise = geo.r0[which], geo.sweep[which], geo.rise[which]
+    pitch = rise / np.abs(sweep)
     kappa = r / (r * r + pitch * pitch)
-    moved = e1 + e2 + (w if abs(rise) > 1e-12 else 0.0)
-    v, a, j = (float(x[0]) for x in lim.over(moved > 0))
-    v = min(v, feed)
-    n = int(min(_MAX_SUBPIECES, max(1, math.ceil(seg.length / _ARC_PIECE))))
-    center = seg.center.copy()
-    for k in range(n):
-        s_a, s_b = seg.length * k / n, seg.length * (k + 1) / n
-        rows.add(kind=ARC, seg=i, length=s_b - s_a, origin=center + w * (rise * k / n), u=e1, e2=e2, w=w,
-                 radius=r, phi0=seg.start_angle + sweep * k / n, sweep=sweep / n, rise=rise / n, kappa=kappa,
-                 vmax=v, accel=a, jerk=j, t_start=seg.tangent_at(s_a), t_end=seg.tangent_at(s_b))
+    moved = (e1 + e2 + np.where(np.abs(rise)[:, None] > 1e-12, w, 0.0)) > 0
+    v, a, j = lim.over(moved)
+    v = np.minimum(v, feeds[segs])
+    m = body[segs]
+    owner = np.repeat(np.arange(len(segs)), m)  # index into segs, one per piece
+    k = np.arange(len(owner)) - np.repeat(np.cumsum(m) - m, m)
+    frac0, frac1 = k / m[owner], (k + 1) / m[owner]
+    length = cols.lengths[segs]
+    rows = first[segs][owner] + k
+    arc_of = which[owner]
+    table.put(rows, ARC, segs[owner], length=length[owner] * frac1 - length[owner] * frac0,
+              origin=cols.center[segs][owner] + w[owner] * (rise[owner] * frac0)[:, None], u=e1[owner],
+              e2=e2[owner], w=w[owner], radius=r[owner], phi0=geo.angle0[arc_of] + sweep[owner] * frac0,
+              sweep=sweep[owner] / m[owner], rise=rise[owner] / m[owner], kappa=kappa[owner], vmax=v[owner],
+              accel=a[owner], jerk=j[owner], t_start=geo.tangents(arc_of, frac0), t_end=geo.tangents(arc_of, frac1))
 
 
-def _add_curve(rows, seg, i, feed, lim: PathLimits):
+def _put_curve(table: _Table, rows: np.ndarray, seg, i: int, feed: float, lim: PathLimits):
+    """A tabulated curve (ellipse, NURBS) cut into ``len(rows)`` pieces, each with its curvature bound."""
     length = seg.length
-    n = int(min(_MAX_SUBPIECES, max(1, math.ceil(length / _CURVE_PIECE))))
+    n = len(rows)
     m = 16 * n
     s = np.linspace(0.0, length, m + 1)
     tan = seg.tangent_at(s)
@@ -315,8 +353,7 @@ def _add_curve(rows, seg, i, feed, lim: PathLimits):
     kappa = 1.02 * padded.reshape(n, 16).max(axis=1)
     moved = np.max(np.abs(tan), axis=0) > 1e-9
     v, a, j = (float(x[0]) for x in lim.over(moved))
-    v = min(v, feed)
-    for k in range(n):
-        s_a, s_b = length * k / n, length * (k + 1) / n
-        rows.add(kind=CURVE, seg=i, length=s_b - s_a, origin=seg.point_at(s_a), seg_s0=s_a, kappa=kappa[k],
-                 vmax=v, accel=a, jerk=j, t_start=tan[16 * k], t_end=tan[16 * (k + 1)])
+    s_a = length * np.arange(n) / n
+    s_b = length * np.arange(1, n + 1) / n
+    table.put(rows, CURVE, i, length=s_b - s_a, origin=seg.point_at(s_a), seg_s0=s_a, kappa=kappa, vmax=min(v, feed),
+              accel=a, jerk=j, t_start=tan[0:16 * n:16], t_end=tan[16:16 * n + 1:16])

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowmc.motion.path import Dwell, Path
+from flowmc.motion.path import Path
+from flowmc.motion.path_columns import DWELL
 from flowmc.motion.trajectory import Signal
 
 __all__ = ["path_signals", "segment_start_times", "step_start_times"]
@@ -40,23 +41,31 @@ def path_signals(path: Path, start_times) -> Signal:
 
     The spindle starts off and the tool up, so a first segment with the spindle on or the tool down
     shows as an event too. A ``tool`` event (1 down, 0 up) marks each change of ``tool_down``;
-    dwells do not change the tool.
+    dwells do not change the tool. Read from the path's columns, all segments at once.
     """
-    t, kind, channel, value = [], [], [], []
-    spindle = 0.0
-    tool = False
-    for seg, t0 in zip(path.segments, np.asarray(start_times, dtype=float)):
-        changes = [("dout", ch, float(bool(on))) for ch, on in seg.outputs]
-        changes += [("da", ch, float(volts)) for ch, volts in seg.analog]
-        if seg.spindle != spindle:
-            spindle = seg.spindle
-            changes.append(("spindle_rpm", 0, float(spindle)))
-        if not isinstance(seg, Dwell) and bool(seg.tool_down) != tool:
-            tool = bool(seg.tool_down)
-            changes.append(("tool", 0, float(tool)))
-        for kd, ch, val in changes:
-            t.append(t0)
-            kind.append(kd)
-            channel.append(ch)
-            value.append(val)
-    return Signal(t, kind, channel, value)
+    cols = path.columns
+    t0 = np.asarray(start_times, dtype=float).reshape(-1)
+    m = min(len(cols), len(t0))
+    seg, order, kind, channel, value = [], [], [], [], []
+
+    def add(rows, rank: int, name: str, channels, values) -> None:
+        seg.append(np.asarray(rows, dtype=np.int64))
+        order.append(np.full(len(seg[-1]), rank))
+        kind.append(np.full(len(seg[-1]), name, dtype="U12"))
+        channel.append(np.asarray(channels, dtype=int))
+        value.append(np.asarray(values, dtype=float))
+
+    for rank, (name, sparse, kind_of) in enumerate((("dout", cols.outputs, bool), ("da", cols.analog, float))):
+        changes = [(k, ch, float(kind_of(v))) for k, row in sorted(sparse.items()) if k < m for ch, v in row]
+        add([c[0] for c in changes], rank, name, [c[1] for c in changes], [c[2] for c in changes])
+    spindle = cols.spindle[:m]
+    rows = np.flatnonzero(spindle != np.r_[0.0, spindle[:-1]])
+    add(rows, 2, "spindle_rpm", np.zeros(len(rows)), spindle[rows])
+    moves = np.flatnonzero(cols.kind[:m] != DWELL)
+    tool = cols.tool_down[moves]
+    rows = moves[tool != np.r_[False, tool[:-1]]]
+    add(rows, 3, "tool", np.zeros(len(rows)), cols.tool_down[rows])
+    seg_all, order_all = np.concatenate(seg), np.concatenate(order)
+    sort = np.lexsort((np.arange(len(seg_all)), order_all, seg_all))
+    return Signal(t0[seg_all[sort]], np.concatenate(kind)[sort], np.concatenate(channel)[sort],
+                  np.concatenate(value)[sort])

@@ -76,8 +76,9 @@ class GcodeIn(NodeType):
         else:
             raise GcodeError("no G-code: type a program into 'text' or name a file")
         path = result.path
-        ctx.log(f"{len(path)} segments ({sum(s.kind == 'arc' for s in path)} arcs, "
-                f"{sum(s.kind == 'dwell' for s in path)} dwells, {len(path.events())} pauses and tool changes), "
+        kinds = path.kind_counts()
+        ctx.log(f"{len(path)} segments ({kinds.get('arc', 0)} arcs, "
+                f"{kinds.get('dwell', 0)} dwells, {len(path.events())} pauses and tool changes), "
                 f"{path.length:.3f} mm")
         for where, text in result.messages[:_SHOWN]:
             ctx.log(f"{where}: {text}")

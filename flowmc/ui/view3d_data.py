@@ -199,7 +199,8 @@ def path_lines(path: Path, tol: float) -> tuple[np.ndarray, np.ndarray]:
     pts, seg = path.sample(tol)
     if len(pts) < 2:
         return np.zeros((0, 2, 3)), np.zeros((0, 2, 3), dtype=np.uint8)
-    rapid = np.array([s.rapid or not s.tool_down for s in path.segments])[seg[1:]]
+    cols = path.columns
+    rapid = (cols.rapid | ~cols.tool_down)[seg[1:]]
     colors = np.where(rapid[:, None], np.array(RAPID_RGB), np.array(FEED_RGB)).astype(np.uint8)
     return pairs(pts), np.repeat(colors[:, None, :], 2, axis=1)
 

@@ -65,3 +65,17 @@ def test_a_machine_axis_linuxcnc_does_not_have_is_refused():
         open_device("linuxcnc", Machine(axes=(Axis(name="X"), Axis(name="A"))))
     with pytest.raises(DeviceError, match="takes no argument"):
         open_device("linuxcnc:fast", machine())
+
+
+def test_a_path_with_pauses_tool_changes_and_indexing_runs_straight_through_on_the_card():
+    from flowmc.devices.linuxcnc.card import LinuxCNCCard
+    from flowmc.motion.path import Dwell, PathEvent
+
+    events = [PathEvent("pause", "check"), PathEvent("tool_change", "T2", 2), PathEvent("index", axes=(("B", 45.0),))]
+    segs = []
+    for k, event in enumerate(events):
+        segs += [Line([k, 0, 0], [k + 1, 0, 0], feed=50.0), Dwell([k + 1, 0, 0], 0.0, event)]
+    card = LinuxCNCCard(machine(), timeout=60.0)  # an M0 would wait here for a resume until the timeout
+    log = card.run_path(Path(segs))
+    np.testing.assert_allclose(log.end_position, [3, 0, 0], atol=1e-6)
+    assert live_linuxcnc_processes() == []

@@ -158,3 +158,14 @@ def test_parse_canon_reads_a_listing_without_running_anything():
     np.testing.assert_allclose(prog.center[1], [0, 0, 0])
     assert prog.turn[1] == 1 and prog.normal_axis[1] == 2
     assert [(e.name, e.index, e.line, e.values) for e in prog.events] == [("DWELL", 2, 9, (1.5,))]
+
+
+def test_runs_at_the_same_time_do_not_crash_each_other():
+    """rs274 maps its tool table at $HOME/.tool.mmap after truncating it; runs that shared one HOME died
+    with SIGBUS ("rs274 failed without a message") when tests or sweep workers ran them side by side."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    text = "G21 G90\n" + "".join(f"G1 X{i % 7} Y{i % 5} F600\n" for i in range(200)) + "M2\n"
+    with ThreadPoolExecutor(16) as pool:
+        runs = list(pool.map(lambda _: run_rs274(text, name="same.ngc"), range(48)))
+    assert all(len(prog.kind) == 200 for prog in runs)

@@ -546,6 +546,11 @@ def test_path_events_are_written_as_the_codes_that_make_them_and_read_back():
     back = [s.event for s in parse_gcode(text) if isinstance(s, Dwell)]
     assert [(e.kind, e.tool, e.axes) for e in back] == [(e.kind, e.tool, e.axes) for e in events]
     assert back[0].message == "check the clamps"
+    # for a machine that runs the path straight through (the LinuxCNC card, flowmc compare): dwells
+    straight = path_to_gcode(Path(segs), events="dwells")
+    assert straight.count("G4 P0\n") == len(events) and not any(c in straight for c in ("M0", "M6", "B45"))
+    with pytest.raises(GcodeError, match="events must be"):
+        path_to_gcode(Path(segs), events="skip")
 
 
 def test_an_arc_whose_radius_prints_as_zero_is_written_as_a_line():

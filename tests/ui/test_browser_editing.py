@@ -183,7 +183,9 @@ def test_an_added_interface_input_is_drawn_as_a_terminal(page_on):
     ui.field("Input name").press("Tab")
     page.get_by_role("button", name="Add input", exact=True).click()
     wait_until(lambda: any(i.name == "offset" for i in editor.state.graph.interface.inputs), what="the input")
-    ui.wait_nodes(len(editor.canvas.boxes))
+    wait_until(lambda: any(b.node_id == "@in:offset" for b in editor.canvas.boxes), what="its terminal laid out")
+    ui.wait_nodes(len(editor.canvas.boxes))  # and drawn in the page before it is dragged from
+    ui.settled()
     term = ui.box("@in:offset")
     assert term.x < min(b.x for b in editor.canvas.boxes if not b.node_id.startswith("@"))  # left of the nodes
     spot, dx = term.outputs[0], ui.box("shift").port("in", "dx")

@@ -149,8 +149,10 @@ class LinuxCNCCard(MotionCard):
     def run_path(self, path: Path, tolerance: float | None = None) -> DeviceLog:
         """Run a Path through flowmc's G-code exporter with ``G64 P<tolerance>`` (default: the card's),
         after a G0 from where the card is to the path's start."""
+        # Path events as zero-second dwells: the run goes straight through (a pause would wait for a
+        # resume this card does not send, and the simulated machine has no rotary axis to index).
         text = path_to_gcode(path, blend_tolerance=self.tolerance if tolerance is None else tolerance,
-                             program_end=False)
+                             program_end=False, events="dwells")
         to_start = " ".join(f"{a}{_num(v)}" for a, v in zip(_XYZ, path.start))
         return self.run_gcode(f"%\nG21 G90\nG0 {to_start}\n{text}%\n", name="path.ngc")
 

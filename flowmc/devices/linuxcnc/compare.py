@@ -107,6 +107,6 @@ def compare_path(path: Path, machine: Machine | None = None, *, tolerance: float
         from flowmc.motion.lookahead import plan_lookahead
 
         flowmc = plan_lookahead(path, machine, rule="blend", tolerance=tolerance).trajectory
-    gcode = path_to_gcode(path, blend_tolerance=tolerance, comment="flowmc compare")
+    gcode = path_to_gcode(path, blend_tolerance=tolerance, comment="flowmc compare", events="dwells")
     run = run_program(gcode, machine, servo_period=servo_period, name="compare.ngc")
     return Comparison(compare_trajectories(flowmc, run, path), flowmc, run, gcode)

@@ -193,10 +193,13 @@ def run_rs274(text: str, *, name: str = "program.ngc", tool_table: str | os.Path
             var = Path(tmp) / "program.var"
             var.write_bytes(Path(parameters).read_bytes())
             command += ["-v", str(var)]
+        # rs274 maps its tool table at $HOME/.tool.mmap, truncating it first: runs sharing a HOME crash each
+        # other with SIGBUS, so each run gets its own.
+        env = {**os.environ, "HOME": tmp}
         try:
             done = subprocess.run(
                 command + ["-g", str(prog)],
-                stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                stdin=subprocess.DEVNULL, capture_output=True, text=True, env=env,
                 timeout=timeout, cwd=str(subroutine_dir) if subroutine_dir is not None else tmp,
             )
         except FileNotFoundError as exc:

@@ -74,7 +74,8 @@ def interpret(text: str, source: str = "<text>", options: GcodeOptions | None = 
     _check_options(options, source)
     interp = Interpreter(options)
     canon = interp.run(text, source)
-    path = Path(canon.segments([s.name for s in interp.sources]))
+    columns = canon.columns([s.name for s in interp.sources])
+    path = Path() if columns is None else Path.from_columns(columns)
     return GcodeResult(path, tuple(interp.warnings), interp.warning_count, tuple(interp.messages),
                        interp.params.persistent())
 

@@ -1,5 +1,5 @@
 """What an interpretation makes: moves, dwells and path events in machine coordinates, kept as columns
-while the program runs and turned into Path segments once at the end.
+while the program runs and handed on as path columns (no Segment objects) at the end.
 
 Output changes follow LinuxCNC's timing. M62/M63/M67 (synchronised with motion) ride on the next
 move's ``outputs``/``analog``. M64/M65/M68 and coolant (M7/M8/M9) happen when reached, after the
@@ -11,18 +11,16 @@ goes on a final zero-second dwell, so nothing is lost.
 
 from __future__ import annotations
 
-import contextlib
-import gc
-
 import numpy as np
 
 import flowmc.budget as budget
 from flowmc.errors import GcodeError
-from flowmc.motion.path import MAX_COORD_MM, Arc, Dwell, Line, NurbsCurve, PathEvent
+from flowmc.motion.path import MAX_COORD_MM, NurbsCurve, PathEvent
+from flowmc.motion.path_columns import ARC, CURVE, DWELL, LINE, PathColumns
 
 __all__ = ["Canon"]
 
-LINE, ARC, DWELL, NURBS = 0, 1, 2, 3
+NURBS = CURVE  # a G5/G5.1 spline row
 
 
 class Canon:
@@ -231,96 +229,55 @@ class Canon:
                                  where=where(int(index[k])))
 
 
-    def segments(self, files: list[str]) -> list:
-        """The Segment objects, built without re-running their constructors' checks (the
-        interpreter checked everything); ``files`` names each file index in ``source``."""
+    def columns(self, files: list[str]) -> PathColumns | None:
+        """The program as path columns (None when it made no segment); ``files`` names each file
+        index in the sources. The interpreter checked every row, so no Segment is built here."""
         n = len(self.kind)
         if n == 0:
-            return []
+            return None
         self._check_sizes(files)
-        with _gc_paused():
-            ends = np.empty((n, 3))
-            ends[:, 0] = self.x
-            ends[:, 1] = self.y
-            ends[:, 2] = self.z
-            ends.setflags(write=False)
-            end_rows = list(ends)
-            start = np.array(self.start, dtype=float)
-            start.setflags(write=False)
-            start_rows = [start] + end_rows[:-1]
-            if len(files) == 1:
-                prefix = files[0] + ":"
-                sources = [prefix + str(line) for line in self.line]
-            else:
-                sources = [f"{files[f]}:{line}" for f, line in zip(self.file, self.line)]
-            new = object.__new__
-            out = [None] * n
-            arc_index = list(self.arcs)
-            if arc_index:
-                table = np.array(list(self.arcs.values()), dtype=float)
-                centres = table[:, :3].copy()
-                normals = table[:, 3].astype(np.int64)
-                starts_at = ends[np.maximum(np.array(arc_index) - 1, 0)]
-                starts_at[np.array(arc_index) == 0] = start
-                rows_a = np.arange(len(arc_index))
-                centres[rows_a, normals] = starts_at[rows_a, normals]
-                centres.setflags(write=False)
-                arc_row = dict(zip(arc_index, range(len(arc_index))))
-                centre_rows = list(centres)
-            kinds, rapids, feeds, spindles = self.kind, self.rapid, self.feed, self.spindle
-            arcs, dwells, events = self.arcs, self.dwells, self.events
-            prev_rapid = None
-            for k in range(n):
-                kind = kinds[k]
-                if kind == LINE:
-                    seg = new(Line)
-                    rapid = rapids[k]
-                    seg.__dict__.update(start=start_rows[k], end=end_rows[k], feed=feeds[k], rapid=rapid,
-                                        tool_down=not rapid, spindle=spindles[k], outputs=(), analog=(),
-                                        source=sources[k])
-                    prev_rapid = rapid
-                elif kind == ARC:
-                    _, _, _, normal, ccw, turns = arcs[k]
-                    seg = new(Arc)
-                    seg.__dict__.update(start=start_rows[k], end=end_rows[k], center=centre_rows[arc_row[k]],
-                                        normal_axis=normal,
-                                        ccw=ccw, turns=turns, feed=feeds[k], rapid=False, tool_down=True,
-                                        spindle=spindles[k], outputs=(), analog=(), source=sources[k])
-                    prev_rapid = False
-                elif kind == NURBS:
-                    points, degree = self.curves[k]
-                    points = [start_rows[k]] + [np.asarray(p, dtype=float) for p in points[1:]]
-                    seg = NurbsCurve(points, degree=degree, feed=feeds[k], rapid=False, tool_down=True,
-                                     spindle=spindles[k], source=sources[k])
-                    seg.__dict__.update(start=start_rows[k], end=end_rows[k])
-                    prev_rapid = False
-                else:
-                    seg = new(Dwell)
-                    seg.__dict__.update(start=start_rows[k], end=start_rows[k],
-                                        seconds=dwells[k], event=events.get(k), feed=feeds[k], rapid=False,
-                                        tool_down=True if prev_rapid is None else not prev_rapid,
-                                        spindle=spindles[k], outputs=(), analog=(), source=sources[k])
-                out[k] = seg
-            for k, changes in self.outputs.items():
-                out[k].__dict__["outputs"] = tuple(changes.items())
-            for k, changes in self.analog.items():
-                out[k].__dict__["analog"] = tuple(changes.items())
-        return out
+        kind = np.array(self.kind, dtype=np.int8)
+        ends = np.empty((n, 3))
+        ends[:, 0] = self.x
+        ends[:, 1] = self.y
+        ends[:, 2] = self.z
+        starts = np.empty((n, 3))
+        starts[0] = self.start
+        starts[1:] = ends[:-1]
+        rapid = np.array(self.rapid, dtype=bool)
+        # A dwell keeps the tool as the last move left it (down before any move).
+        moves = kind != DWELL
+        last_move = np.maximum.accumulate(np.where(moves, np.arange(n), -1))
+        tool_down = np.where(moves, ~rapid, np.where(last_move < 0, True, ~rapid[np.maximum(last_move, 0)]))
+        center = np.zeros((n, 3))
+        normal = np.full(n, 2, dtype=np.int8)
+        ccw = np.ones(n, dtype=bool)
+        turns = np.zeros(n, dtype=np.int64)
+        if self.arcs:
+            rows = np.fromiter(self.arcs, dtype=np.int64, count=len(self.arcs))
+            table = np.array(list(self.arcs.values()), dtype=float)
+            normal[rows] = table[:, 3]
+            center[rows] = table[:, :3]
+            center[rows, normal[rows]] = starts[rows, normal[rows]]
+            ccw[rows] = table[:, 4] != 0
+            turns[rows] = table[:, 5]
+        seconds = np.zeros(n)
+        if self.dwells:
+            seconds[np.fromiter(self.dwells, dtype=np.int64, count=len(self.dwells))] = list(self.dwells.values())
+        curves = {}
+        for k, (points, degree) in self.curves.items():
+            points = [starts[k]] + [np.asarray(p, dtype=float) for p in points[1:]]
+            curves[k] = NurbsCurve(points, degree=degree, feed=self.feed[k], rapid=False, tool_down=True,
+                                   spindle=self.spindle[k], source=f"{files[self.file[k]]}:{self.line[k]}")
+        return PathColumns(
+            kind=kind, start=starts, end=ends, feed=np.array(self.feed, dtype=float), rapid=rapid, tool_down=tool_down,
+            spindle=np.array(self.spindle, dtype=float), center=center, normal_axis=normal, ccw=ccw, turns=turns,
+            seconds=seconds, files=tuple(files), file=np.array(self.file, dtype=np.int32),
+            line=np.array(self.line, dtype=np.int64), events=dict(self.events),
+            outputs={k: tuple(changes.items()) for k, changes in self.outputs.items()},
+            analog={k: tuple(changes.items()) for k, changes in self.analog.items()}, curves=curves)
 
 
 def _first_bad(mask: np.ndarray) -> int | None:
     hit = np.flatnonzero(mask)
     return int(hit[0]) if hit.size else None
-
-
-@contextlib.contextmanager
-def _gc_paused():
-    """Pause the cyclic garbage collector while segments are made: they hold no cycles, and the
-    collector's passes over 100k new objects would otherwise cost more than making them."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
