@@ -12,12 +12,11 @@ import json
 import math
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any, Callable
 
-from flowmc.errors import FlowmcError, GraphError
+from flowmc.errors import FlowmcError, GraphError, printable
 from flowmc.settings import UsageError, input_target, param_target
 
 __all__ = ["main", "build_parser"]
@@ -26,7 +25,8 @@ EXIT_OK, EXIT_FAILED, EXIT_INVALID, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 def _err(line: str) -> None:
-    print(line, file=sys.stderr)
+    """One message to stderr; text quoted from files (a terminal escape in a param) shows escaped."""
+    print("\n".join(printable(part) for part in line.split("\n")), file=sys.stderr)
 
 
 # ---------------------------------------------------------------- values from the command line
@@ -72,18 +72,10 @@ def _json_safe(value: Any) -> Any:
 
 
 def write_json_atomic(path: Path, data: Any) -> None:
+    from flowmc.fileio import write_atomic
+
     text = json.dumps(_json_safe(data), indent=2, ensure_ascii=False) + "\n"
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise FlowmcError(f"cannot write results: {exc.strerror or exc}", where=str(path)) from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, text, what="results file", error=FlowmcError)
 
 
 def _progress_printer(total: int) -> Callable[[Any], None]:

@@ -75,12 +75,24 @@ def read_text(path: str | os.PathLike, *, limit: int | None = None, what: str = 
 
 
 def fingerprint(path: str | os.PathLike, limit: int | None = None) -> str | None:
-    """A hash of the file's content (None if it cannot be read): whether a file changed, even when
-    its size and modification time did not."""
+    """A hash of the file's content, read in chunks (None if it is not a readable regular file, or is
+    over ``limit`` bytes): whether a file changed, even when its size and modification time did not."""
     try:
-        return hashlib.blake2b(read_bytes(path, limit=limit), digest_size=16).hexdigest()
-    except FlowmcError:
+        fd = os.open(os.fspath(path), os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except (OSError, ValueError):
         return None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode) or (limit is not None and info.st_size > limit):
+            return None
+        h = hashlib.blake2b(digest_size=16)
+        while chunk := os.read(fd, _CHUNK):
+            h.update(chunk)
+        return h.hexdigest()
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
 
 
 def _alive(pid: int) -> bool:

@@ -18,9 +18,9 @@ a change to it diffs as a change to that node. Reusable graphs stay separate fil
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -29,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError
 
 import flowmc.budget as budget
 from flowmc.errors import GraphError
-from flowmc.fileio import read_text
+from flowmc.fileio import read_text, write_atomic
 from flowmc.migrations import SCHEMA_VERSION, migrate
 from flowmc.ports import PORT_TYPES
 
@@ -273,8 +273,9 @@ def _schema_issues(exc: ValidationError, raw: Any) -> list[Issue]:
 
 
 def _check_shape(raw: Any, where: str) -> None:
-    """Refuse JSON nested deeper than the budget (deep nesting exhausts recursion later) and text
-    that is not Unicode (a lone surrogate ``\\ud800`` cannot be saved or shown)."""
+    """Refuse JSON nested deeper than the budget (deep nesting exhausts recursion later), numbers that
+    overflow (``1e400`` reads as infinity) and text that is not Unicode (a lone surrogate ``\\ud800``
+    cannot be saved or shown)."""
     limit = budget.cap("depth")
     stack: list[tuple[Any, tuple[Any, ...]]] = [(raw, ())]
     while stack:
@@ -290,6 +291,9 @@ def _check_shape(raw: Any, where: str) -> None:
         else:
             items = (value,)
         for text in items:
+            if isinstance(text, float) and not math.isfinite(text):
+                raise GraphError(f"{_json_path(loc)}: a number too large to hold (it overflows to infinity)",
+                                 where=where)
             if isinstance(text, str) and _SURROGATE.search(text):
                 raise GraphError(f"{_json_path(loc)}: text holds a lone surrogate (\\ud800-\\udfff), "
                                  "which is not Unicode text", where=where)
@@ -407,28 +411,7 @@ def dumps(graph: Graph) -> str:
 def save(graph: Graph, path: str | os.PathLike) -> Path:
     """Write ``graph`` canonically and atomically to ``path``; sets ``graph.path``."""
     path = Path(path)
-    text = dumps(graph)
-    try:
-        mode = path.stat().st_mode & 0o777
-    except OSError:
-        mode = 0o644
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise GraphError(f"cannot save here: {exc.strerror or exc}", where=str(path)) from None
-    try:
-        os.fchmod(fd, mode)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    write_atomic(path, dumps(graph), what="graph file", error=GraphError)
     graph.path = path
     return path
 

@@ -8,6 +8,7 @@ what ``flowmc run`` with the same settings means.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,8 @@ def parse_value(port_type: str | None, text: str, what: str) -> Any:
             value = float(text)
         except ValueError:
             raise UsageError(f"{what}: {text!r} is not a number") from None
+        if not math.isfinite(value):
+            raise UsageError(f"{what}: {text!r} is not a finite number")
         return int(value) if value.is_integer() and "." not in text and "e" not in text.lower() else value
     if port_type == "Bool":
         lowered = text.strip().lower()
@@ -51,9 +54,22 @@ def parse_value(port_type: str | None, text: str, what: str) -> Any:
     if port_type is not None:
         raise UsageError(f"{what}: a {port_type} cannot be given on the command line")
     try:
-        return json.loads(text)
+        value = json.loads(text)
     except json.JSONDecodeError:
         return text
+    if not _finite(value):
+        raise UsageError(f"{what}: {text!r} holds a number that is not finite (NaN, Infinity, or too large)")
+    return value
+
+
+def _finite(value: Any) -> bool:
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, list):
+        return all(_finite(v) for v in value)
+    if isinstance(value, dict):
+        return all(_finite(v) for v in value.values())
+    return True
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ import numpy as np
 
 import flowmc.budget as budget
 from flowmc.errors import PathError
-from flowmc.motion.path import Line, Path
+from flowmc.motion.path import MAX_COORD_MM, Line, Path
 
 __all__ = [
     "METHODS",
@@ -313,6 +313,8 @@ def _nearest_free(tree: Any, free: np.ndarray, here: np.ndarray) -> int:
         k = min(k, n)
         dist, idx = tree.query(here, k=k)
         dist, idx = np.atleast_1d(dist), np.atleast_1d(idx)
+        found = idx < n  # the tree pads with index n where it has no neighbour (distances overflowing)
+        dist, idx = dist[found], idx[found]
         ok = free[idx]
         if ok.any():
             best = dist[ok].min()
@@ -407,6 +409,10 @@ def image_to_path(file: str | os.PathLike, method: Method = DEFAULT_METHOD, thre
     gray = load_gray(name)
     try:
         scale = image_scale(gray.shape, mm_per_pixel, width_mm, height_mm)
+        reach = scale * max(gray.shape) + max(abs(float(origin[0])), abs(float(origin[1])))
+        if not reach <= MAX_COORD_MM:
+            raise PathError(f"the picture would reach {reach:.3g} mm from the origin; coordinates must be within "
+                            f"+-{MAX_COORD_MM:g} mm (a smaller scale or width)")
         if simplify_mm < 0:
             raise PathError(f"simplify tolerance must be >= 0 mm, got {simplify_mm}")
         found = image_contours(gray, method, threshold, invert, scale, origin, simplify_mm)

@@ -15,16 +15,15 @@ radius prints as zero is a line; G-code cannot carry the feed of rapids and dwel
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import re
-import tempfile
 from pathlib import Path as FsPath
 
 import numpy as np
 
 from flowmc.errors import GcodeError
+from flowmc.fileio import write_atomic
 from flowmc.motion.path import PLANES, Arc, Dwell, Line, NurbsCurve, Path, PathEvent, Segment, describe_segment
 
 __all__ = ["path_to_gcode", "write_gcode", "format_mm"]
@@ -234,18 +233,6 @@ def write_gcode(path: Path, file: str | os.PathLike, **options) -> str:
     """Write ``path_to_gcode(path, **options)`` to ``file`` atomically (a temp file, then a rename);
     return the text written."""
     text = path_to_gcode(path, **options)
-    target = FsPath(file)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    except OSError as exc:
-        raise GcodeError(f"cannot write the G-code file: {exc.strerror or exc}", where=str(target)) from exc
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-        os.replace(tmp, target)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise GcodeError(f"cannot write the G-code file: {exc.strerror or exc}", where=str(target)) from exc
+    write_atomic(FsPath(file), text, what="G-code file", error=GcodeError)
     return text
 

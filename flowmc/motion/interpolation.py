@@ -113,6 +113,9 @@ def time_division(path: Path, machine: Machine, *, profile: Literal["trapezoid",
         if math.isfinite(radius):
             accel = amax * _SPLIT
             feed = min(feed, timediv.arc_feed_limit(radius, period, eps), math.sqrt(accel * radius))
+        budget.check("setpoints", seg.length / feed / period if feed > 0 else math.inf, where=where,
+                     what=f"interpolating {seg.length:.6g} mm at {feed:.6g} mm/s",
+                     change="raise the feed, shorten the move, or lengthen the machine's period")
         try:
             s = profiles.sample_profile(_profile(profile, seg.length, feed, accel, jmax), period)
         except PlanningError as exc:

@@ -187,7 +187,9 @@ def _curvature(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
         n1 = np.einsum("...i,...i", d1, d1)
         cross = np.sqrt(np.maximum(n1 * np.einsum("...i,...i", d2, d2) - np.einsum("...i,...i", d1, d2) ** 2, 0))
     speed = np.linalg.norm(d1, axis=-1)
-    return cross / speed**3
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        kappa = cross / speed**3
+    return np.where(speed > 0, kappa, np.inf)  # a cusp (speed 0): unbounded curvature
 
 
 class ArcLengthTable:

@@ -31,7 +31,7 @@ import numpy as np
 
 from flowmc.errors import PathError
 from flowmc.motion.clearance import gouges, sub_segment
-from flowmc.motion.path import Arc, Dwell, Line, Path, Segment, describe_segment
+from flowmc.motion.path import MAX_COORD_MM, Arc, Dwell, Line, Path, Segment, describe_segment
 
 __all__ = ["offset_path"]
 
@@ -44,7 +44,10 @@ def _state(seg: Segment, **changes) -> dict:
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v)
+    norm = np.linalg.norm(v)
+    if not norm > 0:  # a piece shorter than float precision at this size has no direction to offset along
+        raise PathError("a piece of the path is too short, next to its size, to offset (no direction)")
+    return v / norm
 
 
 def _left(v: np.ndarray) -> np.ndarray:
@@ -357,8 +360,8 @@ def offset_path(path: Path, radius: float, side: Literal["left", "right"],
         raise PathError(f"offset side must be 'left' or 'right', got {side!r}")
     if gouge not in ("refuse", "trim"):
         raise PathError(f"gouge must be 'refuse' or 'trim', got {gouge!r}")
-    if not (math.isfinite(radius) and radius >= 0):
-        raise PathError(f"tool radius must be a finite number >= 0 mm, got {radius}")
+    if not (0 <= radius <= MAX_COORD_MM):
+        raise PathError(f"tool radius must be a number >= 0 mm and at most {MAX_COORD_MM:g} mm, got {radius}")
     if radius == 0 or not path.segments:
         return path
     sign = 1.0 if side == "left" else -1.0

@@ -167,8 +167,9 @@ class Line(Segment):
         """Lines through ``points`` (N, 3), all with the same state: checked once, built without the
         per-line checks (a traced picture has hundreds of thousands)."""
         pts = np.asarray(points, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
-            raise PathError(f"line points must be finite (N, 3), got shape {pts.shape}", where=state.get("source"))
+        if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.abs(pts) <= MAX_COORD_MM):
+            raise PathError(f"line points must be (N, 3) within +-{MAX_COORD_MM:g} mm, got shape {pts.shape}",
+                            where=state.get("source"))
         rows = [frozen_array(p) for p in pts]
         fields = {**_defaults(), **state}
         out = []
@@ -497,6 +498,9 @@ class NurbsCurve(_TabulatedCurve, Segment):
                             where=state.get("source"))
         if ctrl.shape[1] == 2:
             ctrl = np.column_stack([ctrl, np.zeros(len(ctrl))])
+        if not np.all(np.abs(ctrl) <= MAX_COORD_MM):
+            raise PathError(f"NURBS control points must be finite and within +-{MAX_COORD_MM:g} mm",
+                            where=state.get("source"))
         w = np.ones(len(ctrl)) if weights is None else np.asarray(weights, dtype=float)
         k = nurbs.clamped_uniform_knots(len(ctrl), degree) if knots is None else np.asarray(knots, dtype=float)
         nurbs.check_nurbs(ctrl, w, k, degree)
@@ -524,7 +528,8 @@ class NurbsCurve(_TabulatedCurve, Segment):
 
         t_tab, _ = self._table
         kappa = nurbs.curvature(self.control_points, self.weights, self.knots, self.degree, t_tab)
-        return float(1.0 / max(np.max(kappa), 1e-12))
+        kappa = kappa[np.isfinite(kappa)]  # a cusp (speed 0) has no curvature to sample by
+        return float(1.0 / max(np.max(kappa, initial=0.0), 1e-12))
 
     def sample(self, tol: float) -> np.ndarray:
         n = chord_count(self.length, self.min_radius, tol)

@@ -76,8 +76,24 @@ class _Interp:
         return out
 
 
+def _rows_at_least(a, b) -> int:
+    """Rows a move between grid points needs whatever the method: one per step of the longer axis."""
+    return max(abs(b[0] - a[0]), abs(b[1] - a[1]))
+
+
+def _check_rows(count: float, seg) -> None:
+    """Refuse a segment whose streams would be over the steps budget, before they are made."""
+    budget.check("steps", count, axes=2, what="stepping this segment",
+                 change="use a coarser step or chord tolerance, or a shorter path", where=seg.source)
+
+
 def _chords(seg, cur, end, step, tol, interp: _Interp):
-    pts = [_grid(p, step) for p in seg.sample(tol)[1:-1]]
+    coarse = np.asarray(seg.point_at(np.linspace(0.0, seg.length, 257)), dtype=float)[:, :2]
+    xy = float(np.linalg.norm(np.diff(coarse, axis=0), axis=1).sum())  # a chord polyline: at most the curve's length
+    _check_rows(xy / (math.sqrt(2.0) * float(step.max())), seg)  # before sampling it finely
+    grid = np.rint(np.asarray(seg.sample(tol), dtype=float)[1:-1, :2] / step)
+    _check_rows(float(np.abs(np.diff(np.vstack([cur, grid, end]), axis=0)).max(axis=1, initial=0).sum()), seg)
+    pts = [(int(x), int(y)) for x, y in grid]
     return interp.polyline([cur, *pts, end])
 
 
@@ -135,6 +151,10 @@ def _conic_arc(seg, cur, end, center_mm, semi_axes_mm, ccw, sweep, step, interp:
 
 def _segment_streams(seg, cur, step, tol, interp: _Interp):
     start, end = _grid(seg.start, step), _grid(seg.end, step)
+    least = float(_rows_at_least(cur, start) + (_rows_at_least(start, end) if isinstance(seg, Line) else 0))
+    if isinstance(seg, Arc) and seg.normal_axis == 2:  # its XY length, in steps of the larger axis step
+        least += 0.5 * (seg.radius + seg.end_radius) * abs(seg.sweep) / (math.sqrt(2.0) * float(step.max()))
+    _check_rows(least, seg)
     out = interp.line(cur, start)  # a gap before this segment (the path does not join up)
     if isinstance(seg, Dwell):
         return out

@@ -119,6 +119,14 @@ class MachineParams(_Params):
     period: Annotated[float, Field(gt=0, le=0.1, description="Interpolation period T",
                                    json_schema_extra={"unit": "s"})] = 0.004
 
+    @field_validator("axes")
+    @classmethod
+    def _unique_names(cls, axes: list[Axis]) -> list[Axis]:  # checked when the graph is validated, not at run time
+        names = [a.name for a in axes]
+        if len(set(names)) != len(names):
+            raise ValueError(f"axis names must be unique, got {names}")
+        return axes
+
 
 @register
 class MachineNode(NodeType):

@@ -119,7 +119,7 @@ class GcodeOut(NodeType):
                                        chord_tolerance=params.chord_tolerance)
         if not params.file:
             return {"text": path_to_gcode(path, **options)}
-        target = ctx.resolve(params.file)
+        target = ctx.resolve_output(params.file)
         try:
             text = write_gcode(path, target, **options)
         except GcodeError as exc:

@@ -54,7 +54,7 @@ class ImageContour(NodeType):
     title = "Image contour"
     category = "Path"
     description = "Trace a picture's outlines into pen-down strokes with pen-up rapids between them (XY plotter)."
-    reads = ("file",)  # cached while the picture is unchanged (its size and modification time are in the key)
+    reads = ("file",)  # cached while the picture is unchanged (its content hash is in the key)
     Params = ImageContourParams
     outputs = (Out("path", "Path", doc="Outlines in machine mm, from (0, 0)"),)
 

@@ -18,7 +18,7 @@ from typing import Any, Callable, Iterable
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
 import flowmc.budget as budget
-from flowmc.errors import GraphError, NodeError
+from flowmc.errors import FlowmcError, GraphError, NodeError
 from flowmc.fileio import fingerprint, read_text
 from flowmc.graph import Graph, Issue, dumps, loads
 from flowmc.ports import REQUIRED, In, Out, Ports
@@ -71,6 +71,11 @@ def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph,
     if path in site.chain:
         names = " -> ".join(site.name(p) for p in site.chain + (path,))
         raise fail("subgraph-recursion", f"sub-graph recursion: {names}")
+    try:  # each level is a few stack frames: a chain of hundreds would exhaust Python's stack
+        budget.check("depth", len(site.chain) + 1, what="sub-graphs nested in sub-graphs",
+                     change="use fewer levels of sub-graphs")
+    except FlowmcError as exc:
+        raise fail("budget", str(exc)) from None
     key = ("subgraph", path, site.root)
     outcome = memo.get(key) if memo is not None else None
     if outcome is None:
@@ -81,9 +86,14 @@ def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph,
         code, detail = outcome
         if isinstance(detail, str):
             raise fail(code, detail)
-        issues = [Issue(c, loc, f"node {node_id!r}: sub-graph {shown}: {m}") for c, m in detail]
+        issues = [Issue(c, loc, _nested(f"node {node_id!r}: sub-graph {shown}: {m}")) for c, m in detail]
         raise GraphError(issues[0].message, issues=issues)
     return outcome
+
+
+def _nested(message: str, keep: int = 600) -> str:
+    """A message from deep inside nested sub-graphs, its middle cut: each level adds its name."""
+    return message if len(message) <= keep else f"{message[: keep // 2]} ... {message[-keep // 2:]}"
 
 
 def _bind_outcome(path: Path, site: Site, shown: str, plan_graph: Callable[[Graph, Site], Plan]) -> Any:

@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 from flowmc.errors import GraphError, printable
 
-__all__ = ["Site", "NodeContext", "resolve_inside"]
+__all__ = ["Site", "NodeContext", "resolve_inside", "files_read"]
 
 NAME_MAX = 255  # bytes in one file or folder name (Linux, macOS and Windows file systems)
 
@@ -74,6 +74,7 @@ class NodeContext:
     _child: Callable[[], Any] | None = field(default=None, repr=False)
     start: Any = field(default=None, repr=False)  # the explicit Start a device node's start() runs under
     _announce: Callable[[Any], None] | None = field(default=None, repr=False)  # an Event into the run
+    _reads: Callable[[], frozenset[Path]] | None = field(default=None, repr=False)  # files the graph reads
 
     @property
     def graph_dir(self) -> Path:
@@ -82,6 +83,25 @@ class NodeContext:
     def resolve(self, rel: str) -> Path:
         """A file named in a param, relative to the graph's folder; refuses paths that leave it."""
         return resolve_inside(self.site.root, self.site.graph_dir, rel, where=f"node {self.node_id!r}")
+
+    def resolve_output(self, rel: str) -> Path:
+        """A file a node writes, named in a param. Like ``resolve``, and it must not be a graph file, a
+        file the graph reads (its own inputs, sub-graphs), a symbolic link, or a folder:
+        a writing node never replaces what it or another node reads."""
+        where = f"node {self.node_id!r}"
+        target = self.resolve(rel)
+        named = self.site.graph_dir / rel
+        shown = printable(rel, 120)
+        if named.is_symlink():
+            raise GraphError(f"'{shown}' is a symbolic link; nodes do not write through links", where=where)
+        if target.is_dir():
+            raise GraphError(f"'{shown}' is a folder; name a file to write", where=where)
+        if target.name.endswith(".flowmc.json"):
+            raise GraphError(f"'{shown}' is a graph file; nodes never overwrite graph files", where=where)
+        reads = self._reads() if self._reads is not None else frozenset()
+        if target in reads:  # a folder it reads (subroutines) may take new files: they are read only when called
+            raise GraphError(f"'{shown}' is a file this graph reads; write to another name", where=where)
+        return target
 
     def log(self, message: str) -> None:
         self._log(str(message))
@@ -96,3 +116,31 @@ class NodeContext:
         if self._child is None:
             raise RuntimeError("no child runtime outside a run")
         return self._child()
+
+
+def files_read(plan: Any) -> frozenset[Path]:
+    """Every file and folder a plan reads (resolved): its graph file, its sub-graph files, and what each
+    node's ``reads`` params name, through sub-graphs in turn. What writing nodes may not replace."""
+    out: set[Path] = set()
+    seen: set[int] = set()
+    stack = [plan]
+    while stack:
+        current = stack.pop()
+        if id(current) in seen:
+            continue
+        seen.add(id(current))
+        if current.graph.path is not None:
+            out.add(Path(current.graph.path).resolve())
+        out.update(Path(p).resolve() for p in current.deps)
+        site = current.site
+        for node in current.nodes.values():
+            for name in node.cls.reads:
+                rel = node.raw_params.get(name)
+                if isinstance(rel, str) and rel:
+                    try:
+                        out.add(resolve_inside(site.root, site.graph_dir, rel))
+                    except GraphError:
+                        pass  # the node reports it when it runs
+            if node.binding is not None and hasattr(node.binding, "nodes"):
+                stack.append(node.binding)
+    return frozenset(out)

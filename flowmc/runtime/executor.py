@@ -21,11 +21,12 @@ import numpy as np
 from pydantic import ValidationError
 
 from flowmc.digest import Undigestable, digest
-from flowmc.errors import FlowmcError, GraphError
+from flowmc.errors import FlowmcError, GraphError, printable
+from flowmc.fileio import fingerprint
 from flowmc.graph import Graph, Issue, load
 from flowmc.registry import Registry
 from flowmc.runtime.cache import CacheEntry, IterationCache, NodeCache, signature
-from flowmc.runtime.context import NodeContext, Site, resolve_inside
+from flowmc.runtime.context import NodeContext, Site, files_read, resolve_inside
 from flowmc.runtime.events import Event, EventBus, Listener
 from flowmc.runtime.schedule import Plan, make_plan
 from flowmc.runtime.start import PREPARED, Start, job_digest
@@ -269,6 +270,7 @@ class _Run:
         self.results: dict[str, NodeResult] = {}
         self.events: list[Event] = []
         self.blocked: dict[str, str] = {}
+        self._reads: frozenset[Path] | None = None
         self.start: Start | None = None  # set by begin(): the explicit Start this run carries on with
         self.prepared: dict[str, Any] = {}  # the jobs as the run prepared them
 
@@ -278,6 +280,11 @@ class _Run:
     def announce(self, event: Event) -> None:
         self.events.append(event)
         self.runtime.events.emit(event)
+
+    def files_read(self) -> frozenset[Path]:
+        if self._reads is None:
+            self._reads = files_read(self.plan)
+        return self._reads
 
     def execute(self) -> RunResult:
         order = self.plan.order
@@ -446,7 +453,7 @@ class _Run:
             self.emit("log", node.id, message=message)
 
         ctx = NodeContext(node.id, self.plan.site, log, node.binding, lambda: self.runtime.child(node.id),
-                          self.start, _announce=self.announce)
+                          self.start, _announce=self.announce, _reads=self.files_read)
         later = node.cls.start_inputs
         if phase == "prepare":
             return node.cls().prepare(ctx, params, **{k: v for k, v in kwargs.items() if k not in later})
@@ -459,8 +466,9 @@ class _Run:
 
 
 def _file_stamps(node: BoundNode, wired: dict[str, Any], site: Site) -> list[tuple[str, str]]:
-    """Sizes and modification times of what a node reads (``NodeType.reads``: files, or folders whose files
-    it may read): a pure node that reads files is cached while they are unchanged."""
+    """Content hashes of what a node reads (``NodeType.reads``: files, or folders whose files it may read):
+    a pure node that reads files is cached while they are unchanged. Hashes, not sizes and modification
+    times: an edit that keeps both (a copy with ``cp -p``, a coarse clock) must still be seen."""
     stamps = []
     for name in node.cls.reads:
         rel = wired[name] if name in wired else node.raw_params.get(name)
@@ -468,8 +476,8 @@ def _file_stamps(node: BoundNode, wired: dict[str, Any], site: Site) -> list[tup
             continue
         try:
             path = resolve_inside(site.root, site.graph_dir, rel)
-            entries = sorted(os.scandir(path), key=lambda e: e.name) if path.is_dir() else [path]
-            listing = ";".join(f"{getattr(e, 'name', '')}:{e.stat().st_mtime_ns}:{e.stat().st_size}" for e in entries)
+            entries = sorted(Path(e.path) for e in os.scandir(path) if e.is_file()) if path.is_dir() else [path]
+            listing = ";".join(f"{e.name}:{fingerprint(e)}" for e in entries)
             stamps.append((f"file:{name}", digest(listing)))
         except (FlowmcError, OSError, TypeError):
             stamps.append((f"file:{name}", "unreadable"))  # the node runs, and says what is wrong
@@ -512,9 +520,21 @@ def _digest_outputs(node: BoundNode, outputs: dict[str, Any]) -> dict[str, str]:
 
 
 def _failure_message(node_id: str, exc: BaseException) -> str:
+    """One line naming the node. A FlowmcError says what and where; a value a model refused, memory or
+    recursion running out are said plainly; anything else is a bug and keeps its type name."""
     if isinstance(exc, FlowmcError):
         text = str(exc)
+    elif isinstance(exc, ValidationError):
+        first = exc.errors()[0]
+        loc = ".".join(str(p) for p in first["loc"])
+        text = f"invalid value{f' for {loc}' if loc else ''}: {first['msg']}"
+    elif isinstance(exc, MemoryError):
+        text = ("ran out of memory: ask for less (a coarser tolerance, a shorter program), or lower the memory "
+                "budget so the request is refused before it starts (flowmc run --memory-mb)")
+    elif isinstance(exc, RecursionError):
+        text = "its input is nested too deeply to process"
     else:
         text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    text = printable(text, 2000)
     prefix = f"node {node_id!r}"
     return text if text.startswith(prefix) else f"{prefix}: {text}"

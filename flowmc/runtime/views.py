@@ -11,14 +11,14 @@ trajectory coloured by speed, for reports and CI where no browser runs.
 
 from __future__ import annotations
 
-import os
-import tempfile
+import io
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 from typing import Any
 
 import numpy as np
 
+from flowmc.fileio import write_atomic
 from flowmc.runtime.schedule import Plan
 
 __all__ = ["VIEW_TYPE", "View", "views", "snapshot", "write_snapshots"]
@@ -183,13 +183,8 @@ def write_snapshots(result: Any, plan: Any, runtime: Any, folder: str | FilePath
     written = []
     for view in views(result, plan, runtime):
         target = folder / (view.key.replace("/", "__") + ".png")
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-        try:
-            with os.fdopen(fd, "wb") as f:
-                snapshot(view).save(f, format="PNG")
-            os.replace(tmp, target)  # a snapshot is whole or not there
-        except BaseException:
-            FilePath(tmp).unlink(missing_ok=True)
-            raise
+        png = io.BytesIO()
+        snapshot(view).save(png, format="PNG")
+        write_atomic(target, png.getvalue(), what="snapshot")  # a snapshot is whole or not there
         written.append(target)
     return written

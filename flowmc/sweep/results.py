@@ -17,12 +17,12 @@ import io
 import json
 import math
 import os
-import uuid
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 from flowmc.errors import FlowmcError
+from flowmc.fileio import write_atomic
 from flowmc.settings import UsageError
 
 __all__ = ["FIXED_COLUMNS", "Journal", "flatten_outputs", "table", "write_tables", "write_atomic"]
@@ -68,23 +68,6 @@ def table(rows: Iterable[dict[str, Any]], params: list[str]) -> tuple[list[str],
         flat.update(out)
         flat_rows.append(flat)
     return [*FIXED_COLUMNS, *params, *outputs], flat_rows
-
-
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file beside it (created with the usual permissions):
-    readers see the old file or the new one, never half of one."""
-    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}.tmp"
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    except OSError as exc:
-        raise FlowmcError(f"cannot write: {exc.strerror or exc}", where=str(path)) from None
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 def _csv_bytes(columns: list[str], rows: list[dict[str, Any]]) -> bytes:

@@ -177,6 +177,12 @@ class Editor:
         client.camera.on_update(lambda _cam: self.minimap.refresh(force=False))
         self._titles.pop(client.client_id, None)
         self._refresh_title([client])
+        clients = list(self.server.get_clients().values())
+        if len(clients) > 1:  # one document for every tab: say so rather than let edits surprise
+            for target in clients:
+                target.add_notification("Shared editor", plain(f"{len(clients)} browser tabs are open on this editor: "
+                                        "they edit the same graph, and share one undo history"),
+                                        color="yellow", auto_close_seconds=10.0)
 
     def on_page_event(self, kind: str, handler: Callable[[Any, Any], object]) -> None:
         """Call ``handler(client, data)`` for page events of ``kind`` (``window.flowmc.send(kind, data)``)."""
@@ -386,17 +392,31 @@ class Editor:
 
     def export_gcode(self, client: viser.ClientHandle | None = None) -> Path | None:
         """Run the graph (cached) and write its Path output as ``<graph>.ngc`` in the folder, and offer it
-        as a download. The path: the graph's Path interface output, else the selected node's, else the last."""
-        from flowmc.ui.gcode_export import export_gcode
+        as a download. The path: the graph's Path interface output, else the selected node's, else the last.
+        An existing file is replaced only after the user agrees (a dialog; None until then)."""
+        from flowmc.ui.gcode_export import prepare_export
 
         try:
-            target, text = export_gcode(self.session)
+            export = prepare_export(self.session)
         except FlowmcError as exc:
             self.notify("error", f"G-code export: {exc}", client)
             return None
-        self.download(target.name, text, client)
-        self.notify("info", f"wrote {target.name}", client)
-        return target
+        if export.replaces:
+            self.confirm("Replace the G-code file?", md("**{}** exists in the graph's folder. Replace it?",
+                                                        export.target.name),
+                         "Replace", lambda: self._write_export(export, client), client)
+            return None
+        return self._write_export(export, client)
+
+    def _write_export(self, export: Any, client: viser.ClientHandle | None) -> Path | None:
+        try:
+            text = export.write()
+        except FlowmcError as exc:
+            self.notify("error", f"G-code export: {exc}", client)
+            return None
+        self.download(export.target.name, text, client)
+        self.notify("info", f"wrote {export.target.name}", client)
+        return export.target
 
     def close(self) -> None:
         """Stop the session (run queue, job runner, device session), the extensions and the server."""

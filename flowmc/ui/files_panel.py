@@ -47,7 +47,7 @@ class FilesPanel:
         self.gcode_button = gui.add_button("Export G-code", hint="Run the graph and write its Path output as G-code")
         self.open_button.on_click(lambda e: self.open(self.open_choice.value, client=e.client))
         self.save_button.on_click(lambda e: self.save())
-        self.save_as_button.on_click(lambda e: self.save_as(self.save_as_name.value))
+        self.save_as_button.on_click(lambda e: self.save_as(self.save_as_name.value, e.client))
         self.new_button.on_click(lambda e: self.confirm_discard(self._new, e.client))
         self.upload_button.on_upload(lambda e: self.upload(e.target.value.name, e.target.value.content, e.client))
         self.download_button.on_click(lambda e: self.download(e.client))
@@ -117,9 +117,15 @@ class FilesPanel:
         self.host.notify("info", f"saved {target.name}")
         return True
 
-    def save_as(self, name: str) -> bool:
+    def save_as(self, name: str, client: Any = None, confirmed: bool = False) -> bool:
+        """Save under ``name``; another file of that name is replaced only after the user agrees."""
         try:
-            target = self.state.save(self._inside(name))
+            target = self._inside(name)
+            if not confirmed and target != self.state.path and (target.is_file() or target.is_symlink()):
+                self.host.confirm("Replace the file?", md("**{}** exists. Replace it with this graph?", target.name),
+                                  "Replace", lambda: self.save_as(name, client, confirmed=True), client)
+                return False
+            target = self.state.save(target)
         except FlowmcError as exc:
             self.host.notify("error", str(exc))
             return False
@@ -129,7 +135,7 @@ class FilesPanel:
 
     def upload(self, name: str, content: bytes, client: Any = None) -> bool:
         try:
-            text = content.decode("utf-8")
+            text = content.decode("utf-8-sig")  # a byte-order mark is not part of the graph
         except UnicodeDecodeError:
             self.host.notify("error", f"{name}: not a text file")
             return False

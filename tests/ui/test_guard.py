@@ -152,11 +152,23 @@ def _evil_site(html: str):
 
 
 @pytest.mark.browser
-def test_a_page_from_another_origin_in_the_same_browser_cannot_connect(editor):
+def test_a_page_from_another_origin_in_the_same_browser_cannot_connect(editor, monkeypatch):
     """The attack of the issue: the user has the editor open (its cookie is in the browser), then visits
     a page on another origin that opens the editor's websocket. 127.0.0.1 on another port is the same
-    *site*, so the strict cookie is sent: only the Origin check stops it."""
+    *site*, so the strict cookie is sent: only the Origin check stops it.
+
+    Every step waits on a condition (the page's state, the guard's verdicts), never on a fixed sleep,
+    so a loaded machine only makes it slower."""
     port = _port(editor)
+    verdicts: list[tuple[str | None, bool]] = []  # (Origin, allowed) of every request the server saw
+    check = editor.guard.check
+
+    def recording(headers, path, at_port):
+        verdict = check(headers, path, at_port)
+        verdicts.append((headers.get("Origin"), verdict.ok))
+        return verdict
+
+    monkeypatch.setattr(editor.guard, "check", recording)
     probe = f"""<script>
       window.result = "pending";
       const ws = new WebSocket("ws://127.0.0.1:{port}/", ["{PROTOCOL}"]);
@@ -168,16 +180,23 @@ def test_a_page_from_another_origin_in_the_same_browser_cannot_connect(editor):
         with chromium() as browser:
             context = browser.new_context()  # one profile: the editor's cookie is there for every page
             page = context.new_page()
-            page.goto(editor.url)  # the editor's own page: sets the cookie, and connects
-            page.wait_for_function("window.__viserMutable?.nodeRefFromName?.['/canvas/body'] != null", timeout=30_000)
-            wait_until(lambda: len(editor.server.get_clients()) == 1, what="the editor's own page to connect")
+            page.goto(editor.url, timeout=120_000)  # the editor's own page: sets the cookie, and connects
+            page.wait_for_function("window.__viserMutable?.nodeRefFromName?.['/canvas/body'] != null",
+                                   timeout=120_000)
+            wait_until(lambda: len(editor.server.get_clients()) == 1, timeout=120,
+                       what="the editor's own page to connect")
             for evil_host in ("127.0.0.1", "localhost"):
+                origin = f"http://{evil_host}:{evil.server_address[1]}"
                 other = context.new_page()
-                other.goto(f"http://{evil_host}:{evil.server_address[1]}/")
-                other.wait_for_function("window.result !== 'pending'", timeout=15_000)
+                other.goto(f"{origin}/", timeout=120_000)
+                other.wait_for_function("window.result !== 'pending'", timeout=120_000)
                 assert other.evaluate("window.result") == "refused", evil_host
-            time.sleep(0.3)
-            assert len(editor.server.get_clients()) == 1
+                wait_until(lambda o=origin: (o, False) in verdicts, timeout=120,
+                           what=f"the server to refuse {origin}")  # refused by the guard, not lost on the way
+                other.close()
+            assert not any(ok for o, ok in verdicts if o is not None and str(evil.server_address[1]) in o)
+            wait_until(lambda: len(editor.server.get_clients()) == 1, timeout=120,
+                       what="only the editor's own page connected")
     finally:
         evil.shutdown()
 

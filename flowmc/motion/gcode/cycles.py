@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import flowmc.budget as budget
 from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.path import PLANES, PathEvent
 
@@ -49,6 +50,11 @@ def run_cycle(interp, motion: int, w: dict, src, i: int) -> None:
         repeats = round(w["L"])
         if abs(w["L"] - repeats) > 1e-4 or repeats < 1:
             raise InterpError(f"the L word (repeats) of {name} must be a whole number, 1 or more")
+        cap = budget.cap("segments")
+        if 3 * repeats > cap:  # each repeat is three moves or more, all made by this one block
+            raise InterpError(f"L{repeats} repeats {name} into {3 * repeats:,} moves or more, over the budget of "
+                              f"{cap:,} segments: use fewer repeats, or raise the memory budget (flowmc run "
+                              "--memory-mb, FLOWMC_MEMORY_MB)")
     else:
         repeats = 1
     if hole in w:
