@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import csv
 import os
-import shutil
 from pathlib import Path
 
 import pytest
@@ -21,9 +20,17 @@ from flowmc.ui.text import unescape_md
 REPO = Path(__file__).resolve().parents[2]
 
 
+def arm_lookahead(check_max: float) -> flowmc.Graph:
+    """The example with its check's limit set here: the planner's times move, the tests' outcomes must not
+    (ratios today: blend 0.693, arm_weighted 0.698, junction_deviation 0.501; blend at tolerance 0.02 0.827)."""
+    graph = flowmc.load(REPO / "graphs" / "arm_lookahead.flowmc.json")
+    next(n for n in graph.nodes if n.id == "check").params["max"] = check_max
+    return graph
+
+
 @pytest.fixture
 def editor(tmp_path):
-    shutil.copy(REPO / "graphs" / "arm_lookahead.flowmc.json", tmp_path)
+    flowmc.save(arm_lookahead(0.695), tmp_path / "arm_lookahead.flowmc.json")  # arm_weighted misses it
     ed = Editor(tmp_path / "arm_lookahead.flowmc.json", port=0)
     yield ed
     ed.close()
@@ -32,7 +39,7 @@ def editor(tmp_path):
 @pytest.fixture
 def tol_editor(tmp_path):
     """arm_lookahead with a second front-panel control: the look-ahead tolerance."""
-    graph = flowmc.load(REPO / "graphs" / "arm_lookahead.flowmc.json")
+    graph = arm_lookahead(0.9)
     graph.interface.inputs.append(InterfaceInput(name="tol", type="Number", default=0.05, to=["lookahead.tolerance"]))
     flowmc.save(graph, tmp_path / "arm.flowmc.json")
     ed = Editor(tmp_path / "arm.flowmc.json", port=0)
@@ -60,7 +67,7 @@ def test_a_sweep_of_a_front_panel_control_runs_and_plots(editor, tmp_path):
     progress = []
     panel._show_progress = lambda p, show=panel._show_progress: (progress.append(p), show(p))
     panel.begin().join(180)
-    assert [r["status"] for r in panel.outcome.rows] == ["done", "failed", "done"]  # arm_weighted misses 0.68
+    assert [r["status"] for r in panel.outcome.rows] == ["done", "failed", "done"]  # arm_weighted misses 0.695
     assert progress[-1].left == 0 and progress[-1].done == 2
     shown = unescape_md(panel.status.content)
     assert "2 done, 1 failed" in shown and "First failure, variant 1: node 'check': check failed" in shown
