@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import argparse
 import random
-import statistics
-import time
+
+from timing import median_ms
 
 import flowmc
 from flowmc.graph import Graph
@@ -32,15 +32,6 @@ def generate(n_nodes: int, seed: int = 1) -> Graph:
         g.wire(b.value if b.id.startswith("src") else b.result, node.b)
         refs.append(node)
     return g.build()
-
-
-def median_ms(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append((time.perf_counter() - start) * 1000)
-    return statistics.median(times)
 
 
 def main() -> None:

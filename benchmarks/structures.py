@@ -20,6 +20,8 @@ import argparse
 import statistics
 import time
 
+from timing import median_ms
+
 import flowmc
 from flowmc.graph import Graph
 from flowmc.nodes.basic import Add, BinaryParams, Multiply
@@ -60,15 +62,6 @@ def direct(count: int) -> float:
             value = add.run(None, BinaryParams(a=value, b=float(k)))["result"]
         total = add.run(None, BinaryParams(a=value, b=total))["result"]
     return total
-
-
-def median_ms(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append((time.perf_counter() - start) * 1000)
-    return statistics.median(times)
 
 
 def main() -> None:
