@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 from pydantic import ValidationError
 
 from flowmc.digest import Undigestable, digest
@@ -122,7 +122,8 @@ def summarize(value: Any) -> Any:
     """``value.summary()`` when it has one, plain scalars as they are, else the type name."""
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
-    if isinstance(value, np.generic):
+    np = sys.modules.get("numpy")  # no numpy value without numpy imported; `flowmc validate` imports none
+    if np is not None and isinstance(value, np.generic):
         return value.item()
     if callable(getattr(value, "summary", None)):
         return value.summary()
