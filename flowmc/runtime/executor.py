@@ -83,6 +83,13 @@ class RunResult:
     def summary_of_jobs(self) -> dict[str, Any]:
         return {n: summarize(job) for n, job in self.jobs.items()}
 
+    def values_of(self, *port_types: str) -> list[tuple[str, str, Any]]:
+        """(node id, output, value) of every value produced on outputs of these port types, in run order
+        (``Plan.outputs_of``): e.g. the last Path a graph made is ``result.values_of("Path")[-1]``."""
+        plan = self.run.plan
+        return [(node_id, name, self.nodes[node_id].outputs[name]) for node_id, name in plan.outputs_of(*port_types)
+                if node_id in self.nodes and name in self.nodes[node_id].outputs]
+
     @property
     def errors(self) -> list[str]:
         return [r.error for r in self.nodes.values() if r.status == "failed" and r.error]
