@@ -354,10 +354,10 @@ class Pwm(NodeType):
     outputs = (_SIGNALS_OUT,)
 
     def run(self, ctx, params: PwmParams, motion=None, signals=None):
-        t = _times(params.at, [c.at for c in params.changes], motion)
-        n = len(t)
         import numpy as np
 
+        t = _times(params.at, [c.at for c in params.changes], motion)
+        n = len(t)
         return {"signals": _chain(signals, np.concatenate([[0.0], t]), ["pwm_freq"] + ["pwm_duty"] * n,
                                   [1] * (n + 1), [params.frequency] + [c.duty for c in params.changes])}
 

@@ -35,14 +35,11 @@ import threading
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Literal
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import flowmc.budget as budget
 from flowmc.errors import GraphError, NodeError
 from flowmc.graph import NAME_PATTERN, Issue
-from flowmc.motion.path import Path
-from flowmc.motion.table import Table
 from flowmc.nodes.subgraph import interface_ports
 from flowmc.ports import REQUIRED, In, Out, Ports
 from flowmc.registry import NodeType, register
@@ -204,6 +201,11 @@ def _bind_loop(cls: type[NodeType], params: _LoopParams, at: BindContext, needs_
 
 def _collect(name: str, body_type: str, values: list[Any], k_done: int) -> Any:
     """Every iteration's value of one output, as auto-indexing gathers them."""
+    import numpy as np  # the values' types: imported when a loop runs, not when a graph is validated
+
+    from flowmc.motion.path import Path
+    from flowmc.motion.table import Table
+
     if body_type == "Path":
         return Path.joined(values)
     index = np.arange(k_done, dtype=float)

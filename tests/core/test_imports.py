@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 CODE = """
 import sys
 import flowmc
@@ -61,3 +63,15 @@ def test_validate_starts_light(tmp_path):
     proc = subprocess.run([sys.executable, "-c", VALIDATE, str(graph)], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == "0 []"
+
+
+@pytest.mark.parametrize("name", ["arm_lookahead", "case_planner", "probe_branch", "wait_for_clamp"])
+def test_loops_cases_reports_and_planners_validate_without_numpy(name):
+    """The basic, structure, planning and device node modules hold params and ports; numpy comes when they run."""
+    from core_helpers import REPO
+
+    code = "import sys\nfrom flowmc.cli import main\nprint(main(['validate', sys.argv[1]]), 'numpy' in sys.modules)"
+    graph = REPO / "graphs" / f"{name}.flowmc.json"
+    proc = subprocess.run([sys.executable, "-c", code, str(graph)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == "0 False"
