@@ -321,7 +321,7 @@ class Interpreter:
                     elif done:
                         self.pc = i + done
                         self.blocks_run += done
-                        if len(canon.kind) > max_segments:
+                        if len(canon) > max_segments:
                             raise self._error(src, i + done - 1, _too_many_segments(max_segments))
                         continue
             self.pc = i + 1
@@ -348,7 +348,7 @@ class Interpreter:
                     self._block(block, src, i)
             except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
                 raise self._error(src, i, str(exc)) from None
-            if len(canon.kind) > max_segments:
+            if len(canon) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
 
     def count_block(self, src: Source, i: int) -> None:
@@ -1021,8 +1021,9 @@ class Interpreter:
         the last point the machine was sent to (after G40 that is the compensated point), in the
         offsets now in force."""
         canon = self.canon
-        if canon.kind:
-            self.mx, self.my, self.mz = canon.x[-1], canon.y[-1], canon.z[-1]
+        last = canon.last_end()
+        if last is not None:
+            self.mx, self.my, self.mz = last
         self._sync_program_position()
 
     def _stop(self, code: int, src: Source, i: int) -> None:
