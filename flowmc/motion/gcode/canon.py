@@ -67,7 +67,7 @@ class Canon:
         if self.kind:
             return self.x[-1], self.y[-1], self.z[-1]
         if self.chunks:
-            return tuple(float(v) for v in self.chunks[-1][1][-1])  # type: ignore[return-value]
+            return tuple(self.chunks[-1][1][-1].tolist())  # type: ignore[return-value]
         return None
 
     def last_spindle(self) -> float | None:
