@@ -31,6 +31,7 @@ from flowmc.motion.gcode.expr import EvalError, compile_value, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
 from flowmc.motion.gcode.params import _COMPUTED, Parameters
+from flowmc.motion.gcode.templates import Templates, evaluator
 from flowmc.motion.gcode.program import Source, read_program_file, subroutine_file
 from flowmc.motion.gcode.threading_cycle import run_g76
 from flowmc.motion.gcode.tools import Tool, ToolTable
@@ -238,6 +239,8 @@ class Interpreter:
         return 0.0
 
     def predefined(self, name: str) -> float | None:
+        if name == "_value":  # read after every call that returns one: answered first
+            return self.value
         s = self.scale
         simple = {
             "_vmajor": _VERSION_MAJOR, "_vminor": _VERSION_MINOR, "_line": float(self.line_no),
@@ -294,6 +297,7 @@ class Interpreter:
         self.max_blocks = self.options.max_blocks or 10 * budget.cap("segments")
         block_delete = self.options.block_delete
         canon = self.canon
+        templates = Templates(self.params, _COMPUTED)
         main = self.sources[0]
         run_ends = main.plain_run_ends() if len(main.lines) >= _FAST_MIN_LINES else None
         while not self.ended:
@@ -327,7 +331,9 @@ class Interpreter:
             self.pc = i + 1
             cached = src.cache.get(i, False) if (self.frames or self.loops) else False
             if cached is False:
-                block = src.parse(i)
+                block = None if (self.frames or self.loops) else templates.block(src.lines[i])
+                if block is None:
+                    block = src.parse(i)
                 if self.frames or self.loops:
                     if block is not None and not block.const:
                         self._compile(block)
@@ -378,6 +384,7 @@ class Interpreter:
             label, keyword, args = block.oword
             label = label if type(label) in (str, int) else compile_value(label, params, computed)
             block.oword = (label, keyword, [compile_value(a, params, computed) for a in args])
+        block.run = evaluator(block)
 
     def _finish(self, src: Source, line: int) -> None:
         if self.comp is not None:
@@ -666,6 +673,8 @@ class Interpreter:
         if b.const:
             words, gvals, mvals = b.words, b.g, b.m
             assigns = b.assign
+        elif b.run is not None:
+            words, gvals, mvals, assigns = b.run()
         else:
             words = {k: (v if type(v) is float else v() if type(v) is not tuple else evaluate(v, params))
                      for k, v in b.words.items()}

@@ -28,7 +28,7 @@ class Block:
     """A parsed line. ``words`` maps single letters to values; ``g``/``m`` list the G and M values in
     order; ``assign`` the parameter settings (target, value); ``oword`` is (label, keyword, args)."""
 
-    __slots__ = ("words", "g", "m", "assign", "comment", "oword", "delete", "const")
+    __slots__ = ("words", "g", "m", "assign", "comment", "oword", "delete", "const", "run")
 
     def __init__(self):
         self.words: dict = {}
@@ -39,6 +39,7 @@ class Block:
         self.oword: tuple | None = None
         self.delete = False
         self.const = True  # every value is a plain float (no parameter reads)
+        self.run = None  # once compiled: a function giving (words, g values, m values, settings)
 
 
 _NUMBER = re.compile(r"\d+\.?\d*|\.\d+")
