@@ -95,6 +95,11 @@ def _rotate(x: float, y: float, c: float, s: float) -> tuple[float, float]:
     return c * x - s * y, s * x + c * y
 
 
+def _too_many_lines(limit: int) -> str:
+    return (f"the program runs more than {limit} lines (an endless loop?); split it, or raise the memory "
+            "budget (flowmc run --memory-mb, FLOWMC_MEMORY_MB) if it is meant to")
+
+
 def _too_many_segments(limit: int) -> str:
     return (f"the program makes more than {limit:,} segments, over the budget: split it, or raise the memory "
             "budget (flowmc run --memory-mb, FLOWMC_MEMORY_MB) if it is meant to")
@@ -329,22 +334,24 @@ class Interpreter:
                             raise self._error(src, i + done - 1, _too_many_segments(max_segments))
                         continue
             self.pc = i + 1
-            cached = src.cache.get(i, False) if (self.frames or self.loops) else False
-            if cached is False:
-                block = None if (self.frames or self.loops) else templates.block(src.lines[i])
-                if block is None:
+            if self.frames or self.loops:
+                block = src.cache.get(i, False)
+                if block is False:
                     block = src.parse(i)
-                if self.frames or self.loops:
                     if block is not None and not block.const:
                         self._compile(block)
                     src.cache[i] = block
             else:
-                block = cached
+                block = templates.block(src.lines[i])
+                if block is None:
+                    block = src.parse(i)
             if block is None:
                 continue
             if block.delete and block_delete:
                 continue
-            self.count_block(src, i)
+            self.blocks_run += 1
+            if self.blocks_run > self.max_blocks:
+                raise self._error(src, i, _too_many_lines(self.max_blocks))
             self.line_no = i + 1
             self.file_index = src.index
             try:
@@ -354,16 +361,14 @@ class Interpreter:
                     self._block(block, src, i)
             except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
                 raise self._error(src, i, str(exc)) from None
-            if len(canon) > max_segments:
+            if canon.sealed + len(canon.kind) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
 
     def count_block(self, src: Source, i: int) -> None:
         """One more line run; the budget stops endless loops."""
         self.blocks_run += 1
         if self.blocks_run > self.max_blocks:
-            raise self._error(src, i, f"the program runs more than {self.max_blocks} lines (an endless loop?); "
-                                      "split it, or raise the memory budget (flowmc run --memory-mb, "
-                                      "FLOWMC_MEMORY_MB) if it is meant to")
+            raise self._error(src, i, _too_many_lines(self.max_blocks))
 
     def _fast_ready(self) -> bool:
         """Whether a run of plain lines may be read at once (nothing special in force)."""
@@ -1481,8 +1486,13 @@ class Interpreter:
 
     def _straight(self, x: float, y: float, z: float, rapid: bool, src: Source, i: int) -> None:
         """A line to program position (x, y, z), mm."""
-        mx, my, mz = self.to_machine(x, y, z)
-        self.canon.line_to(mx, my, mz, rapid, self.feed, self._spindle_rpm(), src.index, i + 1)
+        if self._sin == 0.0 and self._cos == 1.0:
+            g92, g5x, tlo = self.g92, self.g5x, self.tlo
+            mx, my, mz = (x + g92[0] + g5x[0] + tlo[0], y + g92[1] + g5x[1] + tlo[1],
+                          z + g92[2] + g5x[2] + tlo[2])
+        else:
+            mx, my, mz = self.to_machine(x, y, z)
+        self.canon.line_to(mx, my, mz, rapid, self.feed, self.speed * self.spindle_dir + 0.0, src.index, i + 1)
         self.x, self.y, self.z = x, y, z
         self.mx, self.my, self.mz = mx, my, mz
 

@@ -3,8 +3,8 @@
 A generated program repeats a few line shapes with new numbers (``G1 X[#100 * COS[#101] + 3.026]``,
 then ``... + 0.541]``). A line's template is its code with each number written as a slot ``#<$k>``;
 the template is parsed once by the lexer and compiled into closures that read the slots, so each
-later line of that shape only splits out its numbers. Parameter numbers (``#12``), O-word numbers
-and a leading N word stay part of the shape.
+later line of that shape only splits out its numbers. Parameter numbers (``#12``), G, M and O-word
+numbers stay part of the shape; a leading N word is dropped from it.
 
 Only shapes that cannot read differently with a slot than with a number are taken: every number
 follows a letter, ``[``, an operator or ``=``, none runs into a ``.``, none sits inside a
@@ -17,13 +17,14 @@ from __future__ import annotations
 import re
 
 from flowmc.motion.gcode.expr import compile_value
-from flowmc.motion.gcode.lexer import Block, parse_line, split_comments
+from flowmc.motion.gcode.lexer import _BLANKS, Block, parse_line
 
 __all__ = ["Templates"]
 
-_LITERAL = re.compile(r"(?<![#O\d.])(\d+\.?\d*|\.\d+)")
+_LITERAL = re.compile(r"(?<![#OGM\d.])(\d+\.?\d*|\.\d+)")
 _LEAD_N = re.compile(r"/?N\d+(?:\.\d*)?")
 _SLOT_IN_NAME = re.compile(r"<[^>]*#<\$")
+_MAX_SHAPES = 20_000  # a program of ever new shapes gains nothing here: past this, new shapes parse as usual
 _BEFORE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ[+-*/=")
 
 
@@ -40,7 +41,7 @@ class Templates:
         one to take this way (the caller parses it as usual)."""
         if "(" in raw or ";" in raw or ")" in raw or "$" in raw or "%" in raw:
             return None
-        code, _ = split_comments(raw)
+        code = raw.translate(_BLANKS).upper()
         if not code:
             return None
         if code[0] == "N" or code[0] == "/":
@@ -51,6 +52,8 @@ class Templates:
         key = "$".join(parts[0::2])
         shape = self.shapes.get(key, False)
         if shape is False:
+            if len(self.shapes) >= _MAX_SHAPES:
+                return None
             shape = self.shapes[key] = self._compile(parts[0::2])
         if shape is None:
             return None
@@ -71,7 +74,7 @@ class Templates:
             block = parse_line(template)
         except Exception:  # noqa: BLE001 - whatever the template trips on, the ordinary parse explains
             return None
-        if len(texts) == 1:
+        if len(texts) == 1 and block.const:
             return block, None
         block.const = False
         slots: list[float] = [0.0] * (len(texts) - 1)
@@ -97,23 +100,42 @@ def _call(value):
     return value if callable(value) else (lambda: value)
 
 
+def _words(keys: tuple, fs: tuple):
+    """A function building the words dict from its value functions (spelt out for up to 6 words)."""
+    n = len(keys)
+    if n == 0:
+        return dict
+    if n > 6:
+        return lambda: dict(zip(keys, [f() for f in fs]))
+    k1, k2, k3, k4, k5, k6 = keys + ("",) * (6 - n)
+    f1, f2, f3, f4, f5, f6 = fs + (None,) * (6 - n)
+    return (None,
+            lambda: {k1: f1()},
+            lambda: {k1: f1(), k2: f2()},
+            lambda: {k1: f1(), k2: f2(), k3: f3()},
+            lambda: {k1: f1(), k2: f2(), k3: f3(), k4: f4()},
+            lambda: {k1: f1(), k2: f2(), k3: f3(), k4: f4(), k5: f5()},
+            lambda: {k1: f1(), k2: f2(), k3: f3(), k4: f4(), k5: f5(), k6: f6()})[n]
+
+
 def evaluator(block: Block):
     """A compiled block's values in one call: (words, G values, M values, parameter settings), what
     ``Interpreter.values`` otherwise works out item by item. Computed targets (``#[..] =``) are left
-    to it (None)."""
+    to it (None). Constant G and M lists are handed out as they are (the interpreter only reads them)."""
     if any(type(t) is tuple for t, _ in block.assign):
         return None
-    keys = tuple(block.words)
-    fw = tuple(_call(v) for v in block.words.values())
-    fg = tuple(_call(v) for v in block.g)
-    fm = tuple(_call(v) for v in block.m)
+    words = _words(tuple(block.words), tuple(_call(v) for v in block.words.values()))
+    g, m = block.g, block.m
+    constant = all(type(v) is float for v in g) and all(type(v) is float for v in m)
+    if constant and not block.assign:
+        def run():
+            return words(), g, m, ()
+        return run
+    fg = tuple(_call(v) for v in g)
+    fm = tuple(_call(v) for v in m)
     targets = tuple(t for t, _ in block.assign)
     fa = tuple(_call(v) for _, v in block.assign)
-    if not fg and not fm and not fa:
-        def run():
-            return dict(zip(keys, [f() for f in fw])), [], [], ()
-    else:
-        def run():
-            return (dict(zip(keys, [f() for f in fw])), [f() for f in fg], [f() for f in fm],
-                    list(zip(targets, [f() for f in fa])))
+
+    def run():
+        return words(), [f() for f in fg], [f() for f in fm], list(zip(targets, [f() for f in fa]))
     return run
