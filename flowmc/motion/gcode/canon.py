@@ -67,7 +67,8 @@ class Canon:
         if self.kind:
             return self.x[-1], self.y[-1], self.z[-1]
         if self.chunks:
-            return tuple(self.chunks[-1][1][-1].tolist())  # type: ignore[return-value]
+            x, y, z = self.chunks[-1][1][-1].tolist()
+            return x, y, z
         return None
 
     def last_spindle(self) -> float | None:

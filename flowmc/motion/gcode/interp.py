@@ -30,9 +30,10 @@ from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.gcode.expr import EvalError, compile_value, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
+from flowmc.motion.gcode.lexer import Block
 from flowmc.motion.gcode.params import _COMPUTED, Parameters
-from flowmc.motion.gcode.templates import Templates, evaluator
 from flowmc.motion.gcode.program import Source, read_program_file, subroutine_file
+from flowmc.motion.gcode.templates import Templates, evaluator
 from flowmc.motion.gcode.threading_cycle import run_g76
 from flowmc.motion.gcode.tools import Tool, ToolTable
 from flowmc.motion.path import PLANES, PathEvent
@@ -93,6 +94,9 @@ class _Frame:
 
 def _rotate(x: float, y: float, c: float, s: float) -> tuple[float, float]:
     return c * x - s * y, s * x + c * y
+
+
+_UNREAD = Block()  # a line not in a file's cache yet
 
 
 def _too_many_lines(limit: int) -> str:
@@ -335,8 +339,8 @@ class Interpreter:
                         continue
             self.pc = i + 1
             if self.frames or self.loops:
-                block = src.cache.get(i, False)
-                if block is False:
+                block = src.cache.get(i, _UNREAD)
+                if block is _UNREAD:
                     block = src.parse(i)
                     if block is not None and not block.const:
                         self._compile(block)

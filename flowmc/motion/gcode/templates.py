@@ -24,6 +24,7 @@ __all__ = ["Templates"]
 _LITERAL = re.compile(r"(?<![#OGM\d.])(\d+\.?\d*|\.\d+)")
 _LEAD_N = re.compile(r"/?N\d+(?:\.\d*)?")
 _SLOT_IN_NAME = re.compile(r"<[^>]*#<\$")
+_NEW = (None, None)  # a shape not seen yet
 _MAX_SHAPES = 20_000  # a program of ever new shapes gains nothing here: past this, new shapes parse as usual
 _BEFORE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ[+-*/=")
 
@@ -50,8 +51,8 @@ class Templates:
                 code = ("/" if code[0] == "/" else "") + code[m.end():]
         parts = _LITERAL.split(code)
         key = "$".join(parts[0::2])
-        shape = self.shapes.get(key, False)
-        if shape is False:
+        shape = self.shapes.get(key, _NEW)
+        if shape is _NEW:
             if len(self.shapes) >= _MAX_SHAPES:
                 return None
             shape = self.shapes[key] = self._compile(parts[0::2])
@@ -128,9 +129,9 @@ def evaluator(block: Block):
     g, m = block.g, block.m
     constant = all(type(v) is float for v in g) and all(type(v) is float for v in m)
     if constant and not block.assign:
-        def run():
+        def constant_codes():
             return words(), g, m, ()
-        return run
+        return constant_codes
     fg = tuple(_call(v) for v in g)
     fm = tuple(_call(v) for v in m)
     targets = tuple(t for t, _ in block.assign)
