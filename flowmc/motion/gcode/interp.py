@@ -634,9 +634,13 @@ class Interpreter:
             self._comment(b.comment, src, i)
         if not words and not gvals and not mvals:
             return
-        if not mvals and words.keys() <= _XYZF and self.comp_mode == 400 and self.feed_mode == 940 \
-                and not self.diameter_mode and len(gvals) <= 1 and self._fast_move(words, gvals, src, i):
-            return
+        if not mvals and len(gvals) <= 1 and self.comp_mode == 400 and self.feed_mode == 940 and not self.diameter_mode:
+            keys = words.keys()
+            if keys <= _XYZF:
+                if self._fast_move(words, gvals, src, i):
+                    return
+            elif keys <= _ARC_WORDS and self._fast_arc(words, gvals, src, i):
+                return
         for value in words.values():
             if value != value or value in (math.inf, -math.inf):
                 raise InterpError("number too large")
@@ -780,6 +784,35 @@ class Interpreter:
         self.arc_not_allowed = False
         self.cycle_il = None
         self._straight(x, y, z, motion == 0, src, i)
+        self.motion = motion
+        return True
+
+    def _fast_arc(self, w: dict, gvals: list, src: Source, i: int) -> bool:
+        """G2/G3 with X/Y/Z, I/J/K or R, F and P words only (the rest of ``_execute`` has nothing to
+        do for it); False leaves the block to ``_execute``."""
+        if gvals:
+            code = gvals[0]
+            if code == 2.0:
+                motion = 20
+            elif code == 3.0:
+                motion = 30
+            else:
+                return False
+        else:
+            motion = self.motion
+            if (motion != 20 and motion != 30) or not ("X" in w or "Y" in w or "Z" in w):
+                return False
+        for value in w.values():
+            if value - value != 0.0:
+                raise InterpError("number too large")
+        if "F" in w:
+            f = w["F"]
+            if f < 0:
+                raise InterpError("negative F word (feed)")
+            self.feed_word = f
+            self.feed = f * self.scale / 60.0
+        self.cycle_il = None
+        self._arc(motion == 30, w, src, i)
         self.motion = motion
         return True
 
@@ -1629,6 +1662,7 @@ class Interpreter:
 
 
 _XYZF = frozenset("XYZF")
+_ARC_WORDS = frozenset("XYZIJKRFP")
 _FAST_MIN_LINES = 200  # files shorter than this are read line by line
 _FAST_MIN_RUN = 32  # plain runs shorter than this too
 
