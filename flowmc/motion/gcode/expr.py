@@ -233,7 +233,18 @@ def compile_value(node, params, computed=frozenset(), slots=None):
         if slots is not None and name[:1] == "$":
             k = int(name[1:])
             return lambda: slots[k]
-        return lambda: named(name)
+        if name[:1] == "_":
+            table = params.globals  # set ones first; ``named`` answers the rest (predefined, errors)
+
+            def global_value():
+                value = table.get(name)
+                return value if value is not None else named(name)
+            return global_value
+
+        def local_value():
+            value = params.locals.get(name)
+            return value if value is not None else named(name)
+        return local_value
     if kind == NEG:
         f = compile_value(node[1], params, computed, slots)
         if type(f) is float:

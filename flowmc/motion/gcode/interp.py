@@ -342,7 +342,7 @@ class Interpreter:
                 block = src.cache.get(i, _UNREAD)
                 if block is _UNREAD:
                     block = src.parse(i)
-                    if block is not None and not block.const:
+                    if block is not None and (not block.const or block.oword is not None):
                         self._compile(block)
                     src.cache[i] = block
             else:
