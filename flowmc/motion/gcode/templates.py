@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 
 from flowmc.motion.gcode.expr import compile_value
-from flowmc.motion.gcode.lexer import _BLANKS, Block, parse_line
+from flowmc.motion.gcode.lexer import Block, parse_line, squeeze
 
 __all__ = ["Templates"]
 
@@ -42,7 +42,7 @@ class Templates:
         one to take this way (the caller parses it as usual)."""
         if "(" in raw or ";" in raw or ")" in raw or "$" in raw or "%" in raw:
             return None
-        code = raw.translate(_BLANKS).upper()
+        code = squeeze(raw)
         if not code:
             return None
         if code[0] == "N" or code[0] == "/":
