@@ -326,7 +326,7 @@ class Interpreter:
                 return
             if run_ends is not None and run_ends[i] - i >= _FAST_MIN_RUN and i >= self.slow_until \
                     and not self.frames and not self.loops and src is main and self._fast_ready():
-                stop = run_ends[i]
+                stop = min(run_ends[i], (i // _FAST_MAX_RUN + 1) * _FAST_MAX_RUN)  # a fixed grid: reread tokens stay cached
                 if True:
                     done = run_plain(self, src, i, stop)
                     if done < 0:
@@ -1665,6 +1665,7 @@ _XYZF = frozenset("XYZF")
 _ARC_WORDS = frozenset("XYZIJKRFP")
 _FAST_MIN_LINES = 200  # files shorter than this are read line by line
 _FAST_MIN_RUN = 32  # plain runs shorter than this too
+_FAST_MAX_RUN = 50_000  # runs are read in blocks of this many lines (bounds the working arrays)
 
 
 def _label_text(label) -> str:
