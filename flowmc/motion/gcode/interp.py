@@ -736,31 +736,33 @@ class Interpreter:
                          PathEvent("index", f"index {what}: flowmc has no such axis, so the job stops for it",
                                    axes=tuple(sorted(self.extra_pos.items()))))
 
-    def _fast_move(self, w: dict, gvals: list, src: Source, i: int) -> bool:
-        """The common block, G0/G1 with X/Y/Z/F words only, without the full order of execution;
-        False leaves the block to ``_execute``."""
+    def _fast_motion(self, gvals: list, codes: dict) -> int | None:
+        """The motion of a line with at most one G code when it is one of ``codes`` (G value ->
+        motion mode), or, without a G code, when the mode in force is; else None."""
         if gvals:
-            code = gvals[0]
-            if code == 0.0:
-                motion = 0
-            elif code == 1.0:
-                motion = 10
-            else:
-                return False
-        else:
-            motion = self.motion
-            if motion != 0 and motion != 10:
-                return False
+            return codes.get(gvals[0])
+        return self.motion if self.motion in codes.values() else None
+
+    def _fast_feed(self, w: dict) -> None:
+        """A fast line's words are finite numbers; its F word sets the feed (G94)."""
         for value in w.values():
             if value - value != 0.0:
                 raise InterpError("number too large")
-        scale = self.scale
         if "F" in w:
             f = w["F"]
             if f < 0:
                 raise InterpError("negative F word (feed)")
             self.feed_word = f
-            self.feed = f * scale / 60.0
+            self.feed = f * self.scale / 60.0
+
+    def _fast_move(self, w: dict, gvals: list, src: Source, i: int) -> bool:
+        """The common block, G0/G1 with X/Y/Z/F words only, without the full order of execution;
+        False leaves the block to ``_execute``."""
+        motion = self._fast_motion(gvals, _STRAIGHT)
+        if motion is None:
+            return False
+        self._fast_feed(w)
+        scale = self.scale
         has_axis = "X" in w or "Y" in w or "Z" in w
         if not gvals and not has_axis:
             return True
@@ -790,27 +792,10 @@ class Interpreter:
     def _fast_arc(self, w: dict, gvals: list, src: Source, i: int) -> bool:
         """G2/G3 with X/Y/Z, I/J/K or R, F and P words only (the rest of ``_execute`` has nothing to
         do for it); False leaves the block to ``_execute``."""
-        if gvals:
-            code = gvals[0]
-            if code == 2.0:
-                motion = 20
-            elif code == 3.0:
-                motion = 30
-            else:
-                return False
-        else:
-            motion = self.motion
-            if (motion != 20 and motion != 30) or not ("X" in w or "Y" in w or "Z" in w):
-                return False
-        for value in w.values():
-            if value - value != 0.0:
-                raise InterpError("number too large")
-        if "F" in w:
-            f = w["F"]
-            if f < 0:
-                raise InterpError("negative F word (feed)")
-            self.feed_word = f
-            self.feed = f * self.scale / 60.0
+        motion = self._fast_motion(gvals, _ARCS)
+        if motion is None or not (gvals or "X" in w or "Y" in w or "Z" in w):
+            return False
+        self._fast_feed(w)
         self.cycle_il = None
         self._arc(motion == 30, w, src, i)
         self.motion = motion
@@ -1663,6 +1648,8 @@ class Interpreter:
 
 _XYZF = frozenset("XYZF")
 _ARC_WORDS = frozenset("XYZIJKRFP")
+_STRAIGHT = {0.0: 0, 1.0: 10}  # G value -> motion mode, for the fast lines
+_ARCS = {2.0: 20, 3.0: 30}
 _FAST_MIN_LINES = 200  # files shorter than this are read line by line
 _FAST_MIN_RUN = 32  # plain runs shorter than this too
 _FAST_MAX_RUN = 50_000  # runs are read in blocks of this many lines (bounds the working arrays)
