@@ -407,12 +407,19 @@ class Interpreter:
             return label
         return X.label_number(evaluate(label, self.params))
 
+    def _read_oword_line(self, src: Source, k: int) -> Block | None:
+        """A line found while looking for O-words, parsed, compiled (loops pass it again) and kept."""
+        block = src.parse(k)
+        if block is not None and block.oword is not None:
+            self._compile(block)
+        src.cache[k] = block
+        return block
+
     def _oword_at(self, src: Source, k: int):
         """(label, keyword) of the O-word on line k of src, or None."""
-        block = src.cache.get(k, False)
-        if block is False:
-            block = src.parse(k)
-            src.cache[k] = block
+        block = src.cache.get(k, _UNREAD)
+        if block is _UNREAD:
+            block = self._read_oword_line(src, k)
         if block is None or block.oword is None:
             return None
         return self._label(block.oword[0]), block.oword[1]
@@ -428,10 +435,9 @@ class Interpreter:
         constant = True
         for j in range(bisect.bisect_left(lines, start), len(lines)):
             k = lines[j]
-            block = src.cache.get(k, False)
-            if block is False:
-                block = src.parse(k)
-                src.cache[k] = block
+            block = src.cache.get(k, _UNREAD)
+            if block is _UNREAD:
+                block = self._read_oword_line(src, k)
             if block is None or block.oword is None:
                 continue
             raw = block.oword[0]
