@@ -105,6 +105,18 @@ def test_plain_runs_read_at_once_give_what_line_by_line_gives(seed, monkeypatch)
     assert sum(isinstance(s, Arc) for s in fast.path) > 100
 
 
+@pytest.mark.parametrize("block", [37, 100])
+def test_long_runs_read_in_blocks_give_what_line_by_line_gives(block, monkeypatch):
+    """Runs longer than _FAST_MAX_RUN lines are read a block at a time (bounded working memory):
+    G91 sums, feeds and modes carry over each block boundary as from line to line."""
+    text = plain_program(5)
+    with monkeypatch.context() as m:
+        m.setattr(interp_module, "_FAST_MAX_RUN", block)
+        fast = interpret(text, "p.ngc")
+    _, slow = both(text, monkeypatch)
+    assert_same(fast, slow)
+
+
 def test_the_fast_path_hands_back_each_line_it_cannot_read_with_the_same_error(monkeypatch):
     base = plain_program(5).splitlines()
     for bad, message in [("G1 X1 Y2 Y3", "two Y words"), ("G17 G90 G2 X1 Y1 I0.1 J0", "differs from radius"),

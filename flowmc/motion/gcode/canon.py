@@ -24,10 +24,18 @@ NURBS = CURVE  # a G5/G5.1 spline row
 
 
 class Canon:
-    """Collects segments as columns. Coordinates are machine coordinates in mm, feeds mm/s."""
+    """Collects segments as columns. Coordinates are machine coordinates in mm, feeds mm/s.
+
+    Rows made one at a time (``line_to``, ``arc_to``, ``dwell``) gather in short Python lists, the
+    tail; ``extend_moves`` (many rows from the plain-line reader) first seals the tail into a numpy
+    chunk, then appends its own arrays as a chunk: a large program is a few hundred arrays, not
+    millions of list items. ``columns`` joins the chunks once at the end."""
 
     def __init__(self, rapid_feed: float):
         self.rapid_feed = rapid_feed
+        self.chunks: list[tuple] = []  # sealed rows: (kind, ends, rapid, feed, spindle, file, line) arrays
+        self.arc_chunks: list[tuple] = []  # arcs of those chunks: (rows, centres, normals, ccw, turns) arrays
+        self.sealed = 0  # rows in the chunks
         self.kind: list[int] = []
         self.x: list[float] = []
         self.y: list[float] = []
@@ -52,7 +60,43 @@ class Canon:
         self.last_move_rapid = None
 
     def __len__(self) -> int:
-        return len(self.kind)
+        return self.sealed + len(self.kind)
+
+    def last_end(self) -> tuple[float, float, float] | None:
+        """Where the last row ends (None before any row)."""
+        if self.kind:
+            return self.x[-1], self.y[-1], self.z[-1]
+        if self.chunks:
+            x, y, z = self.chunks[-1][1][-1].tolist()
+            return x, y, z
+        return None
+
+    def last_spindle(self) -> float | None:
+        if self.kind:
+            return self.spindle[-1]
+        if self.chunks:
+            return float(self.chunks[-1][4][-1])
+        return None
+
+    def _seal(self) -> None:
+        """The tail's rows into a chunk of arrays (its arcs with them)."""
+        if not self.kind:
+            return
+        ends = np.empty((len(self.kind), 3))
+        ends[:, 0] = self.x
+        ends[:, 1] = self.y
+        ends[:, 2] = self.z
+        self.chunks.append((np.array(self.kind, dtype=np.int8), ends, np.array(self.rapid, dtype=bool),
+                            np.array(self.feed, dtype=float), np.array(self.spindle, dtype=float),
+                            np.array(self.file, dtype=np.int32), np.array(self.line, dtype=np.int64)))
+        self.sealed += len(self.kind)
+        for column in (self.kind, self.x, self.y, self.z, self.rapid, self.feed, self.spindle, self.file, self.line):
+            column.clear()
+        if self.arcs:
+            table = np.array(list(self.arcs.values()), dtype=float)
+            self.arc_chunks.append((np.fromiter(self.arcs, dtype=np.int64, count=len(self.arcs)), table[:, :3],
+                                    table[:, 3].astype(np.int8), table[:, 4] != 0, table[:, 5].astype(np.int64)))
+            self.arcs = {}
 
     # Output changes ------------------------------------------------------------------------------
     def set_output(self, channel: int, on: bool, synced: bool, file: int, line: int) -> None:
@@ -80,13 +124,11 @@ class Canon:
 
     # Segments ----------------------------------------------------------------------------------
     def _here(self) -> tuple[float, float, float]:
-        if self.kind:
-            return self.x[-1], self.y[-1], self.z[-1]
-        return self.start
+        return self.last_end() or self.start
 
     def dwell(self, seconds: float, feed: float, spindle: float, file: int, line: int,
               event: PathEvent | None = None) -> None:
-        k = len(self.kind)
+        k = len(self)
         x, y, z = self._here()
         self.kind.append(DWELL)
         self.x.append(x)
@@ -106,7 +148,7 @@ class Canon:
         if self.now_out or self.now_an:
             file, line = self.now_src
             self.dwell(0.0, feed, spindle, file, line)
-        k = len(self.kind)
+        k = len(self)
         if self.sync_out:
             self.outputs[k] = self.sync_out
             self.sync_out = {}
@@ -133,7 +175,7 @@ class Canon:
                feed: float, spindle: float, file: int, line: int) -> None:
         if self.now_out or self.now_an or self.sync_out or self.sync_an:
             self._before_move(feed, spindle)
-        k = len(self.kind)
+        k = len(self)
         self.kind.append(ARC)
         self.x.append(x)
         self.y.append(y)
@@ -154,29 +196,26 @@ class Canon:
             return
         if self.now_out or self.now_an or self.sync_out or self.sync_an:
             self._before_move(float(feed[0]), float(spindle[0]))
-        k0 = len(self.kind)
-        kind = np.zeros(m, dtype=np.int64)
+        self._seal()
+        k0 = self.sealed
+        kind = np.zeros(m, dtype=np.int8)
         kind[arcs] = ARC
-        self.kind.extend(kind.tolist())
-        self.x.extend(ends[:, 0].tolist())
-        self.y.extend(ends[:, 1].tolist())
-        self.z.extend(ends[:, 2].tolist())
-        self.rapid.extend(np.asarray(rapid).tolist())
-        feed = np.where(rapid, self.rapid_feed, feed)
-        self.feed.extend(feed.tolist())
-        self.spindle.extend(np.asarray(spindle, dtype=float).tolist())
-        self.file.extend([file] * m)
-        self.line.extend(np.asarray(lines).tolist())
-        arc_rows = (np.asarray(arcs) + k0).tolist()
-        for k, c, nrm, cc, t in zip(arc_rows, centres.tolist(), np.asarray(normals).tolist(),
-                                    np.asarray(ccw).tolist(), np.asarray(turns).tolist()):
-            self.arcs[k] = (c[0], c[1], c[2], nrm, cc, t)
+        rapid = np.asarray(rapid, dtype=bool)
+        self.chunks.append((kind, np.array(ends, dtype=float), rapid.copy(),
+                            np.where(rapid, self.rapid_feed, feed).astype(float),
+                            np.array(spindle, dtype=float), np.full(m, file, dtype=np.int32),
+                            np.array(lines, dtype=np.int64)))
+        self.sealed += m
+        if len(arcs):
+            self.arc_chunks.append((np.asarray(arcs, dtype=np.int64) + k0, np.array(centres, dtype=float),
+                                    np.array(normals, dtype=np.int8), np.array(ccw, dtype=bool),
+                                    np.array(turns, dtype=np.int64)))
 
     def nurbs_to(self, points: list, degree: int, feed: float, spindle: float, file: int, line: int) -> None:
         """A NURBS (G5/G5.1 spline) through machine-coordinate control points; it ends on the last."""
         if self.now_out or self.now_an or self.sync_out or self.sync_an:
             self._before_move(feed, spindle)
-        k = len(self.kind)
+        k = len(self)
         x, y, z = points[-1]
         self.kind.append(NURBS)
         self.x.append(x)
@@ -198,53 +237,64 @@ class Canon:
         if self.sync_an:
             self.now_an = {**self.sync_an, **self.now_an}
             self.sync_an = {}
-        changed = bool(self.kind) and self.spindle[-1] != spindle
+        last = self.last_spindle()
+        changed = last is not None and last != spindle
         if pending or changed:
             self.dwell(0.0, feed, spindle, file, line)
 
     # Assembly ----------------------------------------------------------------------------------
-    def _check_sizes(self, files: list[str]) -> None:
+    def _joined(self) -> tuple:
+        """All rows as arrays (kind, ends, rapid, feed, spindle, file, line), and all arcs as
+        (rows, centres, normals, ccw, turns)."""
+        self._seal()
+        rows = tuple(np.concatenate(parts) for parts in zip(*self.chunks))
+        self.chunks = [rows]
+        if self.arc_chunks:
+            arcs = tuple(np.concatenate(parts) for parts in zip(*self.arc_chunks))
+            self.arc_chunks = [arcs]
+        else:
+            arcs = (np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0, dtype=np.int8), np.zeros(0, dtype=bool),
+                    np.zeros(0, dtype=np.int64))
+        return rows, arcs
+
+    def _check_sizes(self, files: list[str], rows: tuple, arcs: tuple) -> None:
         """Refuse coordinates beyond any machine (whose lengths would overflow) and arcs of more turns
         than the budget, naming the line, before any segment is made."""
-        def where(k: int) -> str:
-            return f"{files[self.file[k]]}:{self.line[k]}"
+        file, line = rows[5], rows[6]
 
-        ends = np.column_stack([self.x, self.y, self.z])
+        def where(k: int) -> str:
+            return f"{files[file[k]]}:{line[k]}"
+
+        ends = rows[1]
         k = _first_bad(~(np.abs(ends) <= MAX_COORD_MM).all(axis=1))
         if k is not None:
             raise GcodeError(f"the move ends at {ends[k].tolist()} mm, out of range: coordinates must be within "
                              f"+-{MAX_COORD_MM:g} mm", where=where(k))
-        if self.arcs:
-            index = np.fromiter(self.arcs, dtype=np.int64, count=len(self.arcs))
-            table = np.array(list(self.arcs.values()), dtype=float)
-            k = _first_bad(~(np.abs(table[:, :3]) <= MAX_COORD_MM).all(axis=1))
+        index, centres, _, _, turns = arcs
+        if index.size:
+            k = _first_bad(~(np.abs(centres) <= MAX_COORD_MM).all(axis=1))
             if k is not None:
-                raise GcodeError(f"the arc's centre {table[k, :3].tolist()} mm is out of range: coordinates "
+                raise GcodeError(f"the arc's centre {centres[k].tolist()} mm is out of range: coordinates "
                                  f"must be within +-{MAX_COORD_MM:g} mm", where=where(int(index[k])))
             limit = budget.cap("turns")
-            k = _first_bad(table[:, 5] > limit)
+            k = _first_bad(turns > limit)
             if k is not None:
-                raise GcodeError(f"the arc makes {table[k, 5] + 1:,.0f} turns (P), over the arc-turns budget of "
+                raise GcodeError(f"the arc makes {turns[k] + 1:,} turns (P), over the arc-turns budget of "
                                  f"{limit:,}: use fewer turns (FLOWMC_BUDGET_TURNS raises the budget)",
                                  where=where(int(index[k])))
-
 
     def columns(self, files: list[str]) -> PathColumns | None:
         """The program as path columns (None when it made no segment); ``files`` names each file
         index in the sources. The interpreter checked every row, so no Segment is built here."""
-        n = len(self.kind)
+        n = len(self)
         if n == 0:
             return None
-        self._check_sizes(files)
-        kind = np.array(self.kind, dtype=np.int8)
-        ends = np.empty((n, 3))
-        ends[:, 0] = self.x
-        ends[:, 1] = self.y
-        ends[:, 2] = self.z
+        rows, arcs = self._joined()
+        self._check_sizes(files, rows, arcs)
+        kind, ends, rapid, feed, spindle, file, line = rows
         starts = np.empty((n, 3))
         starts[0] = self.start
         starts[1:] = ends[:-1]
-        rapid = np.array(self.rapid, dtype=bool)
         # A dwell keeps the tool as the last move left it (down before any move).
         moves = kind != DWELL
         last_move = np.maximum.accumulate(np.where(moves, np.arange(n), -1))
@@ -253,27 +303,25 @@ class Canon:
         normal = np.full(n, 2, dtype=np.int8)
         ccw = np.ones(n, dtype=bool)
         turns = np.zeros(n, dtype=np.int64)
-        if self.arcs:
-            rows = np.fromiter(self.arcs, dtype=np.int64, count=len(self.arcs))
-            table = np.array(list(self.arcs.values()), dtype=float)
-            normal[rows] = table[:, 3]
-            center[rows] = table[:, :3]
-            center[rows, normal[rows]] = starts[rows, normal[rows]]
-            ccw[rows] = table[:, 4] != 0
-            turns[rows] = table[:, 5]
+        index = arcs[0]
+        if index.size:
+            normal[index] = arcs[2]
+            center[index] = arcs[1]
+            center[index, normal[index]] = starts[index, normal[index]]
+            ccw[index] = arcs[3]
+            turns[index] = arcs[4]
         seconds = np.zeros(n)
         if self.dwells:
             seconds[np.fromiter(self.dwells, dtype=np.int64, count=len(self.dwells))] = list(self.dwells.values())
         curves = {}
         for k, (points, degree) in self.curves.items():
             points = [starts[k]] + [np.asarray(p, dtype=float) for p in points[1:]]
-            curves[k] = NurbsCurve(points, degree=degree, feed=self.feed[k], rapid=False, tool_down=True,
-                                   spindle=self.spindle[k], source=f"{files[self.file[k]]}:{self.line[k]}")
+            curves[k] = NurbsCurve(points, degree=degree, feed=float(feed[k]), rapid=False, tool_down=True,
+                                   spindle=float(spindle[k]), source=f"{files[file[k]]}:{line[k]}")
         return PathColumns(
-            kind=kind, start=starts, end=ends, feed=np.array(self.feed, dtype=float), rapid=rapid, tool_down=tool_down,
-            spindle=np.array(self.spindle, dtype=float), center=center, normal_axis=normal, ccw=ccw, turns=turns,
-            seconds=seconds, files=tuple(files), file=np.array(self.file, dtype=np.int32),
-            line=np.array(self.line, dtype=np.int64), events=dict(self.events),
+            kind=kind, start=starts, end=ends, feed=feed, rapid=rapid, tool_down=tool_down,
+            spindle=spindle, center=center, normal_axis=normal, ccw=ccw, turns=turns,
+            seconds=seconds, files=tuple(files), file=file, line=line, events=dict(self.events),
             outputs={k: tuple(changes.items()) for k, changes in self.outputs.items()},
             analog={k: tuple(changes.items()) for k, changes in self.analog.items()}, curves=curves)
 

@@ -208,11 +208,12 @@ def evaluate(node, params) -> float:
     raise EvalError(f"bad expression node {kind}")
 
 
-def compile_value(node, params, computed=frozenset()):
+def compile_value(node, params, computed=frozenset(), slots=None):
     """A node as a closure over ``params`` (a float stays a float): what a line run many times (in a
     loop or a subroutine) keeps, so each run skips walking the tree. Same results and errors as
     ``evaluate``; sums and products are not checked for overflow here: the interpreter refuses a
-    word or a parameter setting that is not a finite number."""
+    word or a parameter setting that is not a finite number. With ``slots`` (a list), the named
+    parameter ``$k`` reads ``slots[k]``: a line template's numbers (see ``templates``)."""
     if type(node) is float:
         return node
     kind = node[0]
@@ -224,21 +225,35 @@ def compile_value(node, params, computed=frozenset()):
                 return lambda: number(index)
             num = params.num
             return lambda: num[index]
-        f = compile_value(index, params, computed)
+        f = compile_value(index, params, computed, slots)
         number = params.number
         return lambda: number(param_index(f() if callable(f) else f))
     if kind == NAMED:
         named, name = params.named, node[1]
-        return lambda: named(name)
+        if slots is not None and name[:1] == "$":
+            k = int(name[1:])
+            return lambda: slots[k]
+        if name[:1] == "_":
+            table = params.globals  # set ones first; ``named`` answers the rest (predefined, errors)
+
+            def global_value():
+                value = table.get(name)
+                return value if value is not None else named(name)
+            return global_value
+
+        def local_value():
+            value = params.locals.get(name)
+            return value if value is not None else named(name)
+        return local_value
     if kind == NEG:
-        f = compile_value(node[1], params, computed)
+        f = compile_value(node[1], params, computed, slots)
         if type(f) is float:
             return -f
         return lambda: -f()
     if kind == BIN:
         op = node[1]
-        a = compile_value(node[2], params, computed)
-        b = compile_value(node[3], params, computed)
+        a = compile_value(node[2], params, computed, slots)
+        b = compile_value(node[3], params, computed, slots)
         if type(a) is float:
             ka = a
 
@@ -264,13 +279,13 @@ def compile_value(node, params, computed=frozenset()):
         return lambda: binary(op, a(), b())
     if kind == FUNC:
         name = node[1]
-        f = compile_value(node[2], params, computed)
+        f = compile_value(node[2], params, computed, slots)
         if type(f) is float:
             return function(name, f)
         return lambda: function(name, f())
     if kind == ATAN2:
-        fy = compile_value(node[1], params, computed)
-        fx = compile_value(node[2], params, computed)
+        fy = compile_value(node[1], params, computed, slots)
+        fx = compile_value(node[2], params, computed, slots)
         fy = fy if callable(fy) else (lambda v=fy: v)
         fx = fx if callable(fx) else (lambda v=fx: v)
         return lambda: atan2_degrees(fy(), fx())
@@ -278,6 +293,6 @@ def compile_value(node, params, computed=frozenset()):
         exists, name = params.exists, node[1]
         return lambda: 1.0 if exists(name) else 0.0
     if kind == INDEX:
-        f = compile_value(node[1], params, computed)
+        f = compile_value(node[1], params, computed, slots)
         return (INDEX, f)
     raise EvalError(f"bad expression node {kind}")

@@ -121,6 +121,29 @@ def _ffill(n: int, lines: np.ndarray, values, initial) -> np.ndarray:
     return out
 
 
+def _walk_incremental(end: np.ndarray, has: np.ndarray, value: np.ndarray, incremental: np.ndarray,
+                      start: np.ndarray) -> None:
+    """End points (m, 3) of moves some of which are incremental (G91), run by run of one distance
+    mode. Increments add up one by one (``np.add.accumulate`` is sequential), so the sums round as
+    the line-by-line interpreter's do."""
+    m = len(end)
+    bounds = [0, *(np.flatnonzero(incremental[1:] != incremental[:-1]) + 1).tolist(), m]
+    cur = np.asarray(start, dtype=float)
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        h, v = has[lo:hi], value[lo:hi]
+        if incremental[lo]:
+            steps = np.empty((hi - lo + 1, 3))
+            steps[0] = cur
+            steps[1:] = np.where(h, v, 0.0)
+            run = np.add.accumulate(steps, axis=0)[1:]
+        else:
+            last = np.where(h, np.arange(hi - lo)[:, None], -1)
+            np.maximum.accumulate(last, axis=0, out=last)
+            run = np.where(last >= 0, np.take_along_axis(v, np.maximum(last, 0), axis=0), cur)
+        end[lo:hi] = run
+        cur = run[-1]
+
+
 def _first(mask: np.ndarray, n: int) -> int:
     return int(np.argmax(mask)) if mask.any() else n
 
@@ -246,20 +269,14 @@ def _interpret(interp, src, first: int, n: int, val: dict, groups: dict, bad: in
     end = np.empty((m, 3))
     minc = incremental[mi]
     msc = scale[mi]
-    for axis, letter in enumerate("XYZ"):
-        h = has[letter][mi]
-        v = val[letter][mi] * msc
-        if np.any(h & minc):
-            # Increments add up one by one, as the interpreter adds them (same rounding).
-            x = float(start0[axis])
-            column = []
-            for has_word, value, inc in zip(h.tolist(), v.tolist(), minc.tolist()):
-                if has_word:
-                    x = x + value if inc else value
-                column.append(x)
-            end[:, axis] = column
-        else:
-            end[:, axis] = _ffill(m, np.flatnonzero(h), v[h], float(start0[axis]))
+    h3 = np.column_stack([has[letter][mi] for letter in "XYZ"])
+    v3 = np.column_stack([val[letter][mi] for letter in "XYZ"]) * msc[:, None]
+    if np.any(h3 & minc[:, None]):
+        _walk_incremental(end, h3, v3, minc, start0)
+    else:
+        for axis in range(3):
+            h = h3[:, axis]
+            end[:, axis] = _ffill(m, np.flatnonzero(h), v3[h, axis], float(start0[axis]))
     start = np.vstack([start0[None, :], end[:-1]]) if m else np.zeros((0, 3))
 
     # Arc centres and LinuxCNC's acceptance rule.
@@ -330,7 +347,10 @@ def _interpret(interp, src, first: int, n: int, val: dict, groups: dict, bad: in
     m_spindle = spindle[mi]
     canon = interp.canon
     file = src.index
-    special = np.flatnonzero(dwell | (io > 0) | np.isin(np.arange(n), ai[spiral]))
+    spiral_lines = ai[spiral]
+    warn_at = np.zeros(n, dtype=bool)
+    warn_at[spiral_lines] = True
+    special = np.flatnonzero(dwell | (io > 0) | warn_at)
     special = special[special < stop]
     done_moves = 0
     arc_pos = 0
@@ -350,7 +370,7 @@ def _interpret(interp, src, first: int, n: int, val: dict, groups: dict, bad: in
             canon.set_analog(int(e[line]), float(q[line]), code == 67, file, first + line + 1)
         if dwell[line]:
             canon.dwell(float(p[line]), float(feed[line]), float(spindle[line]), file, first + line + 1)
-        if spiral.size and line in set(ai[spiral].tolist()):
+        if warn_at[line]:
             a = int(np.flatnonzero(ai == line)[0])
             name = "G3" if mode[line] == 30 else "G2"
             interp.warn(src.where(first + line), f"{name} end point is {diff[a]:.6f} mm off the circle through its "

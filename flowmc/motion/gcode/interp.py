@@ -30,8 +30,10 @@ from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.gcode.expr import EvalError, compile_value, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
+from flowmc.motion.gcode.lexer import Block
 from flowmc.motion.gcode.params import _COMPUTED, Parameters
 from flowmc.motion.gcode.program import Source, read_program_file, subroutine_file
+from flowmc.motion.gcode.templates import Templates, evaluator
 from flowmc.motion.gcode.threading_cycle import run_g76
 from flowmc.motion.gcode.tools import Tool, ToolTable
 from flowmc.motion.path import PLANES, PathEvent
@@ -92,6 +94,14 @@ class _Frame:
 
 def _rotate(x: float, y: float, c: float, s: float) -> tuple[float, float]:
     return c * x - s * y, s * x + c * y
+
+
+_UNREAD = Block()  # a line not in a file's cache yet
+
+
+def _too_many_lines(limit: int) -> str:
+    return (f"the program runs more than {limit} lines (an endless loop?); split it, or raise the memory "
+            "budget (flowmc run --memory-mb, FLOWMC_MEMORY_MB) if it is meant to")
 
 
 def _too_many_segments(limit: int) -> str:
@@ -238,6 +248,8 @@ class Interpreter:
         return 0.0
 
     def predefined(self, name: str) -> float | None:
+        if name == "_value":  # read after every call that returns one: answered first
+            return self.value
         s = self.scale
         simple = {
             "_vmajor": _VERSION_MAJOR, "_vminor": _VERSION_MINOR, "_line": float(self.line_no),
@@ -294,6 +306,7 @@ class Interpreter:
         self.max_blocks = self.options.max_blocks or 10 * budget.cap("segments")
         block_delete = self.options.block_delete
         canon = self.canon
+        templates = Templates(self.params, _COMPUTED)
         main = self.sources[0]
         run_ends = main.plain_run_ends() if len(main.lines) >= _FAST_MIN_LINES else None
         while not self.ended:
@@ -313,7 +326,7 @@ class Interpreter:
                 return
             if run_ends is not None and run_ends[i] - i >= _FAST_MIN_RUN and i >= self.slow_until \
                     and not self.frames and not self.loops and src is main and self._fast_ready():
-                stop = run_ends[i]
+                stop = min(run_ends[i], (i // _FAST_MAX_RUN + 1) * _FAST_MAX_RUN)  # a fixed grid: reread tokens stay cached
                 if True:
                     done = run_plain(self, src, i, stop)
                     if done < 0:
@@ -321,24 +334,28 @@ class Interpreter:
                     elif done:
                         self.pc = i + done
                         self.blocks_run += done
-                        if len(canon.kind) > max_segments:
+                        if len(canon) > max_segments:
                             raise self._error(src, i + done - 1, _too_many_segments(max_segments))
                         continue
             self.pc = i + 1
-            cached = src.cache.get(i, False) if (self.frames or self.loops) else False
-            if cached is False:
-                block = src.parse(i)
-                if self.frames or self.loops:
-                    if block is not None and not block.const:
+            if self.frames or self.loops:
+                block = src.cache.get(i, _UNREAD)
+                if block is _UNREAD:
+                    block = src.parse(i)
+                    if block is not None and (not block.const or block.oword is not None):
                         self._compile(block)
                     src.cache[i] = block
             else:
-                block = cached
+                block = templates.block(src.lines[i])
+                if block is None:
+                    block = src.parse(i)
             if block is None:
                 continue
             if block.delete and block_delete:
                 continue
-            self.count_block(src, i)
+            self.blocks_run += 1
+            if self.blocks_run > self.max_blocks:
+                raise self._error(src, i, _too_many_lines(self.max_blocks))
             self.line_no = i + 1
             self.file_index = src.index
             try:
@@ -348,16 +365,14 @@ class Interpreter:
                     self._block(block, src, i)
             except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
                 raise self._error(src, i, str(exc)) from None
-            if len(canon.kind) > max_segments:
+            if canon.sealed + len(canon.kind) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
 
     def count_block(self, src: Source, i: int) -> None:
         """One more line run; the budget stops endless loops."""
         self.blocks_run += 1
         if self.blocks_run > self.max_blocks:
-            raise self._error(src, i, f"the program runs more than {self.max_blocks} lines (an endless loop?); "
-                                      "split it, or raise the memory budget (flowmc run --memory-mb, "
-                                      "FLOWMC_MEMORY_MB) if it is meant to")
+            raise self._error(src, i, _too_many_lines(self.max_blocks))
 
     def _fast_ready(self) -> bool:
         """Whether a run of plain lines may be read at once (nothing special in force)."""
@@ -378,6 +393,7 @@ class Interpreter:
             label, keyword, args = block.oword
             label = label if type(label) in (str, int) else compile_value(label, params, computed)
             block.oword = (label, keyword, [compile_value(a, params, computed) for a in args])
+        block.run = evaluator(block)
 
     def _finish(self, src: Source, line: int) -> None:
         if self.comp is not None:
@@ -391,12 +407,19 @@ class Interpreter:
             return label
         return X.label_number(evaluate(label, self.params))
 
+    def _read_oword_line(self, src: Source, k: int) -> Block | None:
+        """A line found while looking for O-words, parsed, compiled (loops pass it again) and kept."""
+        block = src.parse(k)
+        if block is not None and block.oword is not None:
+            self._compile(block)
+        src.cache[k] = block
+        return block
+
     def _oword_at(self, src: Source, k: int):
         """(label, keyword) of the O-word on line k of src, or None."""
-        block = src.cache.get(k, False)
-        if block is False:
-            block = src.parse(k)
-            src.cache[k] = block
+        block = src.cache.get(k, _UNREAD)
+        if block is _UNREAD:
+            block = self._read_oword_line(src, k)
         if block is None or block.oword is None:
             return None
         return self._label(block.oword[0]), block.oword[1]
@@ -412,10 +435,9 @@ class Interpreter:
         constant = True
         for j in range(bisect.bisect_left(lines, start), len(lines)):
             k = lines[j]
-            block = src.cache.get(k, False)
-            if block is False:
-                block = src.parse(k)
-                src.cache[k] = block
+            block = src.cache.get(k, _UNREAD)
+            if block is _UNREAD:
+                block = self._read_oword_line(src, k)
             if block is None or block.oword is None:
                 continue
             raw = block.oword[0]
@@ -618,9 +640,13 @@ class Interpreter:
             self._comment(b.comment, src, i)
         if not words and not gvals and not mvals:
             return
-        if not mvals and words.keys() <= _XYZF and self.comp_mode == 400 and self.feed_mode == 940 \
-                and not self.diameter_mode and len(gvals) <= 1 and self._fast_move(words, gvals, src, i):
-            return
+        if not mvals and len(gvals) <= 1 and self.comp_mode == 400 and self.feed_mode == 940 and not self.diameter_mode:
+            keys = words.keys()
+            if keys <= _XYZF:
+                if self._fast_move(words, gvals, src, i):
+                    return
+            elif keys <= _ARC_WORDS and self._fast_arc(words, gvals, src, i):
+                return
         for value in words.values():
             if value != value or value in (math.inf, -math.inf):
                 raise InterpError("number too large")
@@ -666,6 +692,8 @@ class Interpreter:
         if b.const:
             words, gvals, mvals = b.words, b.g, b.m
             assigns = b.assign
+        elif b.run is not None:
+            words, gvals, mvals, assigns = b.run()
         else:
             words = {k: (v if type(v) is float else v() if type(v) is not tuple else evaluate(v, params))
                      for k, v in b.words.items()}
@@ -714,31 +742,33 @@ class Interpreter:
                          PathEvent("index", f"index {what}: flowmc has no such axis, so the job stops for it",
                                    axes=tuple(sorted(self.extra_pos.items()))))
 
-    def _fast_move(self, w: dict, gvals: list, src: Source, i: int) -> bool:
-        """The common block, G0/G1 with X/Y/Z/F words only, without the full order of execution;
-        False leaves the block to ``_execute``."""
+    def _fast_motion(self, gvals: list, codes: dict) -> int | None:
+        """The motion of a line with at most one G code when it is one of ``codes`` (G value ->
+        motion mode), or, without a G code, when the mode in force is; else None."""
         if gvals:
-            code = gvals[0]
-            if code == 0.0:
-                motion = 0
-            elif code == 1.0:
-                motion = 10
-            else:
-                return False
-        else:
-            motion = self.motion
-            if motion != 0 and motion != 10:
-                return False
+            return codes.get(gvals[0])
+        return self.motion if self.motion in codes.values() else None
+
+    def _fast_feed(self, w: dict) -> None:
+        """A fast line's words are finite numbers; its F word sets the feed (G94)."""
         for value in w.values():
             if value - value != 0.0:
                 raise InterpError("number too large")
-        scale = self.scale
         if "F" in w:
             f = w["F"]
             if f < 0:
                 raise InterpError("negative F word (feed)")
             self.feed_word = f
-            self.feed = f * scale / 60.0
+            self.feed = f * self.scale / 60.0
+
+    def _fast_move(self, w: dict, gvals: list, src: Source, i: int) -> bool:
+        """The common block, G0/G1 with X/Y/Z/F words only, without the full order of execution;
+        False leaves the block to ``_execute``."""
+        motion = self._fast_motion(gvals, _STRAIGHT)
+        if motion is None:
+            return False
+        self._fast_feed(w)
+        scale = self.scale
         has_axis = "X" in w or "Y" in w or "Z" in w
         if not gvals and not has_axis:
             return True
@@ -762,6 +792,18 @@ class Interpreter:
         self.arc_not_allowed = False
         self.cycle_il = None
         self._straight(x, y, z, motion == 0, src, i)
+        self.motion = motion
+        return True
+
+    def _fast_arc(self, w: dict, gvals: list, src: Source, i: int) -> bool:
+        """G2/G3 with X/Y/Z, I/J/K or R, F and P words only (the rest of ``_execute`` has nothing to
+        do for it); False leaves the block to ``_execute``."""
+        motion = self._fast_motion(gvals, _ARCS)
+        if motion is None or not (gvals or "X" in w or "Y" in w or "Z" in w):
+            return False
+        self._fast_feed(w)
+        self.cycle_il = None
+        self._arc(motion == 30, w, src, i)
         self.motion = motion
         return True
 
@@ -1021,8 +1063,9 @@ class Interpreter:
         the last point the machine was sent to (after G40 that is the compensated point), in the
         offsets now in force."""
         canon = self.canon
-        if canon.kind:
-            self.mx, self.my, self.mz = canon.x[-1], canon.y[-1], canon.z[-1]
+        last = canon.last_end()
+        if last is not None:
+            self.mx, self.my, self.mz = last
         self._sync_program_position()
 
     def _stop(self, code: int, src: Source, i: int) -> None:
@@ -1471,8 +1514,13 @@ class Interpreter:
 
     def _straight(self, x: float, y: float, z: float, rapid: bool, src: Source, i: int) -> None:
         """A line to program position (x, y, z), mm."""
-        mx, my, mz = self.to_machine(x, y, z)
-        self.canon.line_to(mx, my, mz, rapid, self.feed, self._spindle_rpm(), src.index, i + 1)
+        if self._sin == 0.0 and self._cos == 1.0:
+            g92, g5x, tlo = self.g92, self.g5x, self.tlo
+            mx, my, mz = (x + g92[0] + g5x[0] + tlo[0], y + g92[1] + g5x[1] + tlo[1],
+                          z + g92[2] + g5x[2] + tlo[2])
+        else:
+            mx, my, mz = self.to_machine(x, y, z)
+        self.canon.line_to(mx, my, mz, rapid, self.feed, self.speed * self.spindle_dir + 0.0, src.index, i + 1)
         self.x, self.y, self.z = x, y, z
         self.mx, self.my, self.mz = mx, my, mz
 
@@ -1605,8 +1653,12 @@ class Interpreter:
 
 
 _XYZF = frozenset("XYZF")
+_ARC_WORDS = frozenset("XYZIJKRFP")
+_STRAIGHT = {0.0: 0, 1.0: 10}  # G value -> motion mode, for the fast lines
+_ARCS = {2.0: 20, 3.0: 30}
 _FAST_MIN_LINES = 200  # files shorter than this are read line by line
 _FAST_MIN_RUN = 32  # plain runs shorter than this too
+_FAST_MAX_RUN = 50_000  # runs are read in blocks of this many lines (bounds the working arrays)
 
 
 def _label_text(label) -> str:

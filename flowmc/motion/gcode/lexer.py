@@ -28,7 +28,7 @@ class Block:
     """A parsed line. ``words`` maps single letters to values; ``g``/``m`` list the G and M values in
     order; ``assign`` the parameter settings (target, value); ``oword`` is (label, keyword, args)."""
 
-    __slots__ = ("words", "g", "m", "assign", "comment", "oword", "delete", "const")
+    __slots__ = ("words", "g", "m", "assign", "comment", "oword", "delete", "const", "run")
 
     def __init__(self):
         self.words: dict = {}
@@ -39,6 +39,7 @@ class Block:
         self.oword: tuple | None = None
         self.delete = False
         self.const = True  # every value is a plain float (no parameter reads)
+        self.run = None  # once compiled: a function giving (words, g values, m values, settings)
 
 
 _NUMBER = re.compile(r"\d+\.?\d*|\.\d+")
@@ -50,7 +51,16 @@ _OPERATOR_WORD = re.compile(r"MOD|AND|XOR|OR|EQ|NE|GT|GE|LT|LE")
 _OWORD_KEY = re.compile(r"ENDSUB|SUB|CALL|RETURN|DO|WHILE|ENDWHILE|IF|ELSEIF|ELSE|ENDIF|BREAK|CONTINUE|"
                         r"REPEAT|ENDREPEAT")
 _COMMENT = re.compile(r"\(([^()]*)\)")
-_BLANKS = str.maketrans("", "", " \t")
+
+
+def squeeze(code: str) -> str:
+    """Code without spaces or tabs, upper-cased (``str.replace`` is several times faster than
+    ``str.translate`` here)."""
+    code = code.replace(" ", "")
+    if "\t" in code:
+        code = code.replace("\t", "")
+    return code.upper()
+
 
 # Binary operators: text -> (precedence, opcode).
 _OPS = {"**": (5, X.POW), "*": (4, X.MUL), "/": (4, X.DIV), "MOD": (4, X.MOD), "+": (3, X.ADD), "-": (3, X.SUB),
@@ -62,7 +72,7 @@ _AXIS_HINT = {c: f"axis {c} is not supported (flowmc paths have X, Y and Z)" for
 def split_comments(raw: str) -> tuple[str, str | None]:
     """(code without comments, spaces or tabs, upper-cased; the last comment's text or None)."""
     if "(" not in raw and ";" not in raw and ")" not in raw:
-        return raw.translate(_BLANKS).upper(), None
+        return squeeze(raw), None
     parts = []
     comment = None
     pos = 0
@@ -90,7 +100,7 @@ def split_comments(raw: str) -> tuple[str, str | None]:
             raise LexError("comments do not nest: '(' inside a comment")
         comment = raw[k + 1:end]
         pos = end + 1
-    return "".join(parts).translate(_BLANKS).upper(), comment
+    return squeeze("".join(parts)), comment
 
 
 def parse_line(code: str) -> Block:
