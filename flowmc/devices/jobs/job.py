@@ -155,6 +155,7 @@ class JobStatus:
     rapid: float = 100.0
     spindle: float = 100.0
     single_block: bool = False
+    optional_stop: bool = False
     outputs: dict = field(default_factory=dict)
     message: str = ""
 

@@ -75,7 +75,7 @@ def plan_start(nominal: np.ndarray, segment: np.ndarray, signals: list[SignalRow
         row0 = int(rows[0])
         state = dict(outputs_now)
         for row, kind, ch, value in signals:
-            if row < row0:
+            if row < row0 and kind != "pause":  # an operator stop is no machine state
                 state[(kind, 0 if kind == "tool" else ch)] = value
         changed = {k: v for k, v in state.items() if outputs_now.get(k, 0.0) != v}
         tool_at_start = changed.pop(("tool", 0), None)
