@@ -3,6 +3,8 @@ card, through the job API: the job comes to rest where the G-code reader put the
 Resume carries on along the uninterrupted path. Checked from the raw commanded setpoints and the
 card's output changes."""
 
+import threading
+
 import numpy as np
 import pytest
 
@@ -136,3 +138,51 @@ def test_a_stop_command_while_paused_aborts_with_outputs_safe():
     runner.run()
     assert runner.state == "aborted"
     assert runner.status.outputs["spindle_rpm"] == 0 and not runner.status.outputs["dout"]
+
+
+# ---------------------------------------------------------------- GRBL (protocol simulator, motion model)
+
+def _grbl_run(grbl_sim, **options):
+    """The program on the GRBL simulator; every hold is resumed after 0.3 s. (sim, runner, held, where held)."""
+    sim = grbl_sim(motion=True, accel=200.0)
+    machine = Machine()
+    motion = plan_lookahead(parse_gcode(PROGRAM.replace("M3 S2000", "M3 S2000 F1200"), "part.ngc"), machine).trajectory
+    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", motion, name="mill"), **options)
+    held, at = [], []
+
+    def on_event(event):
+        if event.kind == "state" and event.status.state == "held":
+            held.append(event)
+            at.append((list(sim.model.position), sim.spindle_dir, sim.model.state()))
+            threading.Timer(0.3, runner.resume).start()
+
+    runner.subscribe(on_event)
+    runner.run()
+    return sim, runner, held, at
+
+
+def test_grbl_pauses_on_m0_and_m6_as_m0_and_cycle_start_resumes(grbl_sim):
+    sim, runner, held, at = _grbl_run(grbl_sim)
+    assert runner.state == "done"
+    assert [e.message.split(";")[0] for e in held] == [
+        "program pause (M0): check the part at part.ngc:7", "tool change (M6): change to tool T2 at part.ngc:12"]
+    assert [e.status.line for e in held] == [7, 12]
+    for (position, _spindle, state), point in zip(at, (M0_AT, M6_AT)):
+        assert state == "Hold:0"  # GRBL itself is paused, at rest
+        np.testing.assert_allclose(position, point, atol=0.02)
+    assert at[1][1] == 5  # M5 went before the M6: the spindle is off through the tool change
+    sent = [line for line in sim.received if line.strip()]
+    i_m6 = [i for i, line in enumerate(sent) if line == "M0"][1]
+    i_m3 = next(i for i, line in enumerate(sent) if line.startswith("M3 S2000"))
+    assert sent[i_m6 - 1] == "M5" and i_m6 < i_m3 < i_m6 + 3  # M3 after the stop (the dwell's last row between)
+    assert sum(1 for _t, b in sim.bytes_seen if b == ord("~")) == 2
+    np.testing.assert_allclose(sim.model.position, runner.job.motion.positions[-1], atol=0.02)
+
+
+def test_grbl_sends_m1_as_a_stop_only_with_the_optional_stop_on(grbl_sim):
+    _sim, _runner, held, _at = _grbl_run(grbl_sim)
+    assert len(held) == 2
+    _sim, runner, held, at = _grbl_run(grbl_sim, optional_stop=True)
+    assert runner.state == "done" and len(held) == 3
+    assert held[1].message.startswith("optional stop (M1) at part.ngc:9")
+    np.testing.assert_allclose(at[1][0], M1_AT, atol=0.02)
