@@ -186,3 +186,37 @@ def test_grbl_sends_m1_as_a_stop_only_with_the_optional_stop_on(grbl_sim):
     assert runner.state == "done" and len(held) == 3
     assert held[1].message.startswith("optional stop (M1) at part.ngc:9")
     np.testing.assert_allclose(at[1][0], M1_AT, atol=0.02)
+
+
+# ---------------------------------------------------------------- start at a G-code line
+
+def test_start_at_a_gcode_line_starts_at_its_segment_and_says_what_it_assumed():
+    job = _job()
+    runner, held, _log = _run(job, start_line=13)  # "M3 S2000": no motion of its own, after the M6
+    assert runner.state == "done" and held == []  # the tool change before it is behind the start
+    text = " | ".join(runner.assumptions)
+    assert "G-code line 13 has no motion of its own: started at line 14" in text
+    assert "spindle 2,000 rpm" in text and "tool T2 is loaded" in text
+    sp = runner.setpoints()
+    y_line = job.motion.positions[np.flatnonzero(job.motion.segment == runner.start_at)]
+    assert np.min(np.linalg.norm(sp - y_line[0], axis=1)) < 1e-6  # it reached the start of line 14's move ...
+    np.testing.assert_allclose(sp[-1], job.motion.positions[-1], atol=1e-9)  # ... and ran to the end
+    assert np.all(sp[:, 0] <= 1e-6)  # never drew the X moves before it (the job started at X 0 Y 20)
+
+
+def test_start_at_a_line_after_the_program_is_refused_naming_its_lines():
+    from flowmc.errors import DeviceError
+
+    with pytest.raises(DeviceError, match=r"no motion at G-code line 99 or after it \(the program's segments come from lines 2-16\)"):
+        JobRunner(_job(), pace="virtual", start_line=99)
+
+
+def test_start_line_as_a_start_option_reaches_the_runner():
+    from flowmc.devices.jobs.prepare import start_job
+
+    class Start:
+        options = {"pace": "virtual", "start_line": {"card": 14}}  # after the M6: no stop waits for Resume
+        on_job = None
+
+    runner = start_job(_job(), None, Start(), "card")
+    assert runner.state == "done" and runner.assumptions[0] == "G-code line 14 is segment 9 (part.ngc:14)"

@@ -74,14 +74,15 @@ class JobRunner:
     """Runs ``job`` once. ``after``: the log of the device operation before it (the simulated card
     carries on from its end state). ``start_at``: start from this segment (0-based; the state there is
     rebuilt and the tool approaches safely, see ``restart``). ``optional_stop``: the program's M1 stops
-    (M0, M60 and M6 always do; see ``pauses``). ``tick_hz``: how often position events go out.
+    (M0, M60 and M6 always do; see ``pauses``). ``start_line``: start at this G-code line instead
+    (its segment, or the next line's that moves; said in ``assumptions``). ``tick_hz``: how often position events go out.
     ``record``: keep every commanded setpoint before the card rounds it to steps (``setpoints()``), so
     tests and benchmarks can check limits from the raw samples.
     """
 
     def __init__(self, job: Job, *, after: DeviceLog | None = None, pace: str = "instant", speed: float = 1.0,
                  start_at: int | None = None, single_block: bool = False, tick_hz: float = 50.0,
-                 record: bool = False, optional_stop: bool = False):
+                 record: bool = False, optional_stop: bool = False, start_line: int | None = None):
         if pace not in PACES:
             raise DeviceError(f"unknown pace {pace!r}; known: {', '.join(PACES)}", where="job")
         if not speed > 0:
@@ -91,6 +92,11 @@ class JobRunner:
         self.pace = pace
         self.speed = float(speed)
         self.start_at = start_at
+        self.line_note = ""
+        if start_line is not None:  # start at a G-code line: the segment it is (or the next with motion)
+            if start_at is not None:
+                raise DeviceError("start at a segment or at a G-code line, not both", where="job")
+            self.start_at, self.line_note = job.segment_at_line(int(start_line))
         self.tick_hz = float(tick_hz)
         self.log: DeviceLog | None = None
         self.message = ""

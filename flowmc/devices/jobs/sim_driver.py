@@ -138,6 +138,8 @@ class SimStream:
             if tool is not None:
                 plan.assumptions.append(f"assumed: tool T{tool.tool} is loaded (the last tool change before it, "
                                         f"{job.where(tool.segment)})")
+        if runner.line_note:
+            plan.assumptions.insert(0, runner.line_note)
         runner.assumptions = plan.assumptions
         for text in plan.assumptions:
             runner.emit("log", text)
