@@ -207,7 +207,8 @@ def test_start_at_a_gcode_line_starts_at_its_segment_and_says_what_it_assumed():
 def test_start_at_a_line_after_the_program_is_refused_naming_its_lines():
     from flowmc.errors import DeviceError
 
-    with pytest.raises(DeviceError, match=r"no motion at G-code line 99 or after it \(the program's segments come from lines 2-16\)"):
+    said = r"no motion at G-code line 99 or after it \(the program's segments come from lines 2-16\)"
+    with pytest.raises(DeviceError, match=said):
         JobRunner(_job(), pace="virtual", start_line=99)
 
 
