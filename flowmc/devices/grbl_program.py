@@ -190,12 +190,10 @@ def _stop_rows(motion, seg: np.ndarray, optional_stop: bool, per_row: float, n: 
         if e.kind == "optional_pause" and not optional_stop:
             continue
         row = min(int(np.searchsorted(seg, e.segment, side="left")), n - 1)
-        what = {"pause": "program pause (M0)", "optional_pause": "optional stop (M1)",
-                "pallet_change": "pallet change (M60)", "tool_change": "tool change (M6)"}.get(e.kind, "indexing stop")
-        said = e.message or (f"change to tool T{e.tool}" if e.tool is not None else "")
+        said = e.said
         where = motion.segment_names[e.segment] if e.segment < len(motion.segment_names) else ""
         out.append((row, int(np.count_nonzero(own[:e.signals_before] >= row)),
-                    f"{what}{': ' + said if said else ''} at {where or describe_segment(e.segment, ())}"))
+                    f"{e.what}{': ' + said if said else ''} at {where or describe_segment(e.segment, ())}"))
     return out
 
 

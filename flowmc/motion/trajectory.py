@@ -34,6 +34,19 @@ class ProgramEvent(NamedTuple):
         return {"pause": "M0", "optional_pause": "M1", "pallet_change": "M60", "tool_change": "M6"}.get(self.kind,
                                                                                                      "index")
 
+    @property
+    def what(self) -> str:
+        """How a job names it: ``tool change (M6)``."""
+        return {"pause": "program pause", "optional_pause": "optional stop", "pallet_change": "pallet change",
+                "tool_change": "tool change"}.get(self.kind, "indexing stop") + (
+                    f" ({self.code})" if self.code != "index" else "")
+
+    @property
+    def said(self) -> str:
+        """What to tell the operator: the program's message, or the tool to load."""
+        return self.message or (f"change to tool T{self.tool}" if self.kind == "tool_change" and self.tool is not None
+                                else "")
+
 
 def _events(events) -> tuple[ProgramEvent, ...]:
     return tuple(ProgramEvent(*e) for e in events)

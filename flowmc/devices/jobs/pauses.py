@@ -20,10 +20,6 @@ from flowmc.motion.trajectory import ProgramEvent
 
 __all__ = ["Pause", "program_pauses", "last_tool_before"]
 
-_WHAT = {"pause": "program pause (M0)", "optional_pause": "optional stop (M1)", "pallet_change": "pallet change (M60)",
-         "tool_change": "tool change (M6)", "index": "indexing stop"}
-
-
 @dataclass(frozen=True)
 class Pause:
     """One operator stop of a job: the event, where it is (as the user counts), the G-code line."""
@@ -36,9 +32,8 @@ class Pause:
         return self.event.kind != "optional_pause" or optional_stop
 
     def describe(self) -> str:
-        e = self.event
-        said = e.message or (f"change to tool T{e.tool}" if e.kind == "tool_change" and e.tool is not None else "")
-        return f"{_WHAT.get(e.kind, e.kind)} at {self.where}" + (f": {said}" if said else "") + "; Resume carries on"
+        said = self.event.said
+        return f"{self.event.what} at {self.where}" + (f": {said}" if said else "") + "; Resume carries on"
 
 
 def program_pauses(motion, seg_rows: np.ndarray, signal_rows: list[int], own_rows: np.ndarray
