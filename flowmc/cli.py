@@ -168,26 +168,31 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _start_options(args: argparse.Namespace, prepared: Any) -> dict[str, Any]:
-    """The job runners' options from ``--realtime``, ``--speed``, ``--start-at`` and the overrides."""
-    options: dict[str, Any] = {"pace": "realtime" if args.realtime else "instant", "speed": args.speed}
+    """The job runners' options from ``--realtime``, ``--speed``, ``--start-at``/``--start-line``,
+    ``--optional-stop`` and the overrides."""
+    options: dict[str, Any] = {"pace": "realtime" if args.realtime else "instant", "speed": args.speed,
+                               "optional_stop": bool(args.optional_stop)}
     for name in ("feed", "rapid", "spindle"):
         if getattr(args, name) is not None:
             options[name] = getattr(args, name)
-    if args.start_at:
-        node, _, number = args.start_at.rpartition(":")
+    for flag, key, what in (("--start-at", "start_at", "SEGMENT"), ("--start-line", "start_line", "LINE")):
+        given = getattr(args, key)
+        if not given:
+            continue
+        node, _, number = given.rpartition(":")
         programs = [n for n, job in prepared.jobs.items() if getattr(job, "operation", "") == "program"]
         if not node:
             if len(programs) != 1:
-                raise UsageError(f"--start-at {args.start_at}: say which job, NODE:SEGMENT (program jobs: "
+                raise UsageError(f"{flag} {given}: say which job, NODE:{what} (program jobs: "
                                  f"{', '.join(programs) or 'none'})")
             node = programs[0]
         if node not in programs:
-            raise UsageError(f"--start-at {args.start_at}: {node!r} is not a program job (program jobs: "
+            raise UsageError(f"{flag} {given}: {node!r} is not a program job (program jobs: "
                              f"{', '.join(programs) or 'none'})")
         try:
-            options["start_at"] = {node: int(number)}
+            options[key] = {node: int(number)}
         except ValueError:
-            raise UsageError(f"--start-at {args.start_at}: the segment is a number from 1") from None
+            raise UsageError(f"{flag} {given}: the {what.lower()} is a number from 1") from None
     return options
 
 
@@ -359,6 +364,9 @@ def build_parser() -> argparse.ArgumentParser:
     jobs.add_argument("--start-at", metavar="[NODE:]SEGMENT",
                       help="start the program job from this segment (from 1): the machine state there is rebuilt "
                            "and the tool approaches safely")
+    jobs.add_argument("--start-line", metavar="[NODE:]LINE",
+                      help="start the program job at this G-code line (or the next line that moves), as --start-at")
+    jobs.add_argument("--optional-stop", action="store_true", help="the program's M1 stops the job (as M0 does)")
     jobs.add_argument("--feed", type=float, metavar="PCT", help="feed override, 10-200 %% (default 100)")
     jobs.add_argument("--rapid", type=float, metavar="PCT", help="rapid override, 25, 50 or 100 %%")
     jobs.add_argument("--spindle", type=float, metavar="PCT", help="spindle override, 50-200 %%")

@@ -9,7 +9,8 @@ The caller exits with 130 and says where it stopped.
 The bar is rich's: rich is already installed with viser (no new dependency), and its ``Progress``
 takes custom columns, so the bar shows the job's own time left at the current overrides (what the
 runner computes from the program) rather than an estimate from the speed so far, and the segment or
-G-code line it is on. Off a terminal, each job's state changes are printed as lines instead.
+G-code line it is on. Off a terminal, each job's state changes are printed as lines instead. A
+program stop (M0, M6, M1 with ``--optional-stop``) on a paced run waits for Enter.
 """
 
 from __future__ import annotations
@@ -51,6 +52,8 @@ class JobConsole:
             status = event.status
             if event.kind == "state":
                 self._say(f"job {node_id}: {status.state}" + (f" ({event.message})" if event.message else ""))
+                if status.state == "held" and event.message.endswith("Resume carries on"):
+                    self._wait_for_resume(node_id, runner)
             elif event.kind == "log" and event.message:
                 self._say(f"job {node_id}: {event.message}")
             if task is not None and event.kind in ("tick", "state"):
@@ -59,6 +62,14 @@ class JobConsole:
                 self._progress.update(task, completed=status.progress, left=left, where=where)
 
         runner.subscribe(follow)
+
+    def _wait_for_resume(self, node_id: str, runner: Any) -> None:
+        """A program stop (M0, M6, ...): Enter on the terminal resumes; without one only Ctrl-C ends it."""
+        if not sys.stdin.isatty():
+            self._say(f"job {node_id}: waiting for the operator, but there is no terminal to resume from; Ctrl-C stops")
+            return
+        self._say(f"job {node_id}: press Enter to resume")
+        threading.Thread(target=lambda: (sys.stdin.readline(), runner.resume()), daemon=True).start()
 
     def start(self, runtime: Any, prepared: Any, options: dict[str, Any]) -> Any:
         """Start ``prepared`` (a run of ``runtime``) and wait for it; Ctrl-C stops it as described above."""

@@ -15,7 +15,11 @@ rapid does not lift anything) tool events are not sent. A program with tool even
 follows the preamble, before the move to the start. With commands that use the spindle, a program
 that also sets the spindle is refused (one would overwrite the other). GRBL has no other outputs that flowmc can drive;
 other signals
-are refused, naming the signal. A step stream's signal times are in ticks when it is untimed (the
+are refused, naming the signal. The program's operator stops (its ``events``: M0, M60, M6, an
+indexing stop, and M1 when ``optional_stop``) become ``M0`` (GRBL 1.1 pauses on M0 once its planner
+has run empty and waits for cycle start ``~``; it ignores M1 and refuses M6), placed among the
+signal codes as the program orders them, each with a source that says what it was. A step stream's
+signal times are in ticks when it is untimed (the
 ``Steps`` convention).
 """
 
@@ -115,7 +119,8 @@ def _signal_codes(sig: Signal, i: int, pen: tuple[str, str] | None) -> str:
 
 
 def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal | None = None,
-                 tolerance: float = 0.01, pen: tuple[str, str] | None = None) -> list[ProgramLine]:
+                 tolerance: float = 0.01, pen: tuple[str, str] | None = None, optional_stop: bool = False
+                 ) -> list[ProgramLine]:
     """G-code lines for a trajectory or step stream (axes X, Y, Z only: GRBL's).
 
     ``pen``: the (down, up) commands for tool signals, or None to send none.
@@ -146,7 +151,8 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
                           f"(e.g. M8 / M9) or none", where=f"signal {i} at t={sig.t[i]:g}")
     per_row = dt if not (isinstance(motion, Steps) and motion.tick <= 0) else 1.0  # untimed: ticks
     sig_rows = np.clip(np.ceil(np.asarray(sig.t) / per_row - 1e-9).astype(int), 0, len(pos) - 1)
-    kept = decimate(pos, tolerance, keep=sig_rows)
+    stops = _stop_rows(motion, seg, optional_stop, per_row, len(pos))
+    kept = decimate(pos, tolerance, keep=np.concatenate([sig_rows, [row for row, _n, _s in stops]]).astype(int))
     lines = [ProgramLine(t, "preamble") for t in PREAMBLE]
     if pen is not None and "tool" in kinds:  # a program's tool starts up, before the move to its start
         lines.append(ProgramLine(pen[1], "preamble (tool up)"))
@@ -158,6 +164,9 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
         code = _signal_codes(sig, int(i), pen)
         if code:
             codes.setdefault(int(sig_rows[i]), []).append(ProgramLine(code, f"signal {int(i)}"))
+    for row, before, said in reversed(stops):  # after the program's own signals that come before it
+        at = codes.setdefault(row, [])
+        at.insert(min(before, len(at)), ProgramLine("M0", said))
     for prev, row in zip(kept[:-1], kept[1:]):
         lines += codes.get(int(prev), [])
         step = pos[row] - pos[prev]
@@ -171,6 +180,21 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
         lines.append(ProgramLine(f"G1 {words} F{_num(length / seconds * 60.0)}", source(row)))
     lines += codes.get(int(kept[-1]), [])
     return lines
+
+
+def _stop_rows(motion, seg: np.ndarray, optional_stop: bool, per_row: float, n: int) -> list[tuple[int, int, str]]:
+    """(row, how many of the row's signal codes come first, source) of each operator stop, in order."""
+    own = np.clip(np.ceil(np.asarray(motion.signals.t) / per_row - 1e-9).astype(int), 0, n - 1)
+    out = []
+    for e in motion.events:
+        if e.kind == "optional_pause" and not optional_stop:
+            continue
+        row = min(int(np.searchsorted(seg, e.segment, side="left")), n - 1)
+        said = e.said
+        where = motion.segment_names[e.segment] if e.segment < len(motion.segment_names) else ""
+        out.append((row, int(np.count_nonzero(own[:e.signals_before] >= row)),
+                    f"{e.what}{': ' + said if said else ''} at {where or describe_segment(e.segment, ())}"))
+    return out
 
 
 def text_gcode(text: str, name: str = "program") -> list[ProgramLine]:

@@ -23,6 +23,9 @@ What it models
   banner ``Grbl 1.1h ['$' for help]`` sent again).
 - ``$X`` unlock, ``$$`` a few settings, ``$H`` homing (MPos set to 0 at once), ``$J=`` jogging.
 - Modal state: G0/G1/G2/G3 motion, G90/G91, G20/G21, F, S, M3/M4/M5, M7/M8/M9.
+- M0 program pause: once the motion before it has run (M-codes wait for the planner to empty), the
+  state is ``Hold:0`` until cycle start ``~``, as GRBL 1.1 does. M1 is accepted and ignored (GRBL
+  has no optional-stop switch); M6 is refused (error:20), as GRBL 1.1 refuses it.
 
 What it does not model
 ----------------------
@@ -350,7 +353,11 @@ class GrblSimulator:
                 code = int(value) if value == int(value) else None
                 if code not in _M_OK:
                     return "error:20"
-                if code in (3, 4, 5):
+                if code == 0:  # program pause: a feed hold at rest, until cycle start
+                    self.hold = True
+                    if self.model is not None:
+                        self.model.hold = True
+                elif code in (3, 4, 5):
                     self.spindle_dir = code
                 elif code in (7, 8, 9):
                     self.coolant = code

@@ -29,7 +29,7 @@ from flowmc.motion import nurbs, profiles, timediv
 from flowmc.motion.limits import PathLimits, segment_feed
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import PLANES, Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, describe_segment
-from flowmc.motion.signals import path_signals
+from flowmc.motion.signals import path_signals, program_events
 from flowmc.motion.trajectory import Trajectory
 
 __all__ = ["TimeDivision", "NurbsTaylor", "time_division", "nurbs_taylor", "check_joined"]
@@ -60,7 +60,7 @@ def _assemble(chunks: list[np.ndarray], period: float, path: Path) -> Trajectory
         seg_idx.append(np.full(len(chunk), i, dtype=int))
         count += len(chunk)
     return Trajectory(np.vstack(pts), period, np.concatenate(seg_idx), signals=path_signals(path, starts),
-                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid(), events=program_events(path))
 
 
 # ---------------------------------------------------------------- time division

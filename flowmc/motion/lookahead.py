@@ -35,7 +35,7 @@ from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid
-from flowmc.motion.signals import path_signals, segment_start_times
+from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.trajectory import Trajectory
 
 if TYPE_CHECKING:  # the smoothing planner (scipy) loads on first use: `flowmc validate` starts without it
@@ -473,7 +473,7 @@ def _sample(pieces: Pieces, runs: _Runs, phases: _Phases, path: Path, machine: M
     tags = pieces.seg[piece]
     traj = Trajectory(pos[:, cols], period, tags, axes=tuple("XYZ"[c] for c in cols),
                       signals=path_signals(path, segment_start_times(tags, period, len(path))),
-                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid(), events=program_events(path))
     corner_times = starts[np.searchsorted(phases.run, np.flatnonzero(runs.corner[1:-1]) + 1)]
     return Plan(traj, s, run, runs.vmax, accel_used, runs.jerk, v, corner_times)
 

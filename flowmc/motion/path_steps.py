@@ -30,7 +30,7 @@ import flowmc.budget as budget
 from flowmc.errors import PathError
 from flowmc.motion import stepinterp
 from flowmc.motion.path import Arc, Dwell, EllipseArc, Line, Path, describe_segment
-from flowmc.motion.signals import path_signals, step_start_times
+from flowmc.motion.signals import path_signals, program_events, step_start_times
 from flowmc.motion.trajectory import Steps
 
 __all__ = ["path_to_steps", "METHODS"]
@@ -213,4 +213,4 @@ def path_to_steps(path: Path, step_mm, method: str = "pbp", *, bits: int | None 
     signals = path_signals(path, step_start_times(segment, tick, len(path)))
     return Steps(steps, step, np.array(origin, dtype=float) * step, tick=tick, segment=segment, axes=("X", "Y"),
                  signals=signals, segment_names=path.segment_names(),
-                 segment_rapid=path.segment_rapid())
+                 segment_rapid=path.segment_rapid(), events=program_events(path))

@@ -20,7 +20,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.pieces import _check_axes
-from flowmc.motion.signals import path_signals, segment_start_times
+from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
 from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law
 from flowmc.motion.trajectory import Trajectory
@@ -79,5 +79,5 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     cols = list(lim.cols)
     traj = Trajectory(pos[:, cols], machine.period, tags, axes=lim.axes,
                       signals=path_signals(path, segment_start_times(tags, machine.period, len(path))),
-                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid())
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid(), events=program_events(path))
     return SmoothPlan(traj, u, sm, law)

@@ -226,6 +226,8 @@ class Retimer:
         want = (goal - r) / T
         r_dot = min(max(want, lo), hi) if lo <= hi else 0.5 * (lo + hi)
         r_new = max(r + r_dot * T, 0.0)
+        if r_dot > 0.0:  # never past the goal: where the bounds contradict (a reversal, q' ~ 0) r_dot is their middle
+            r_new = min(r_new, max(goal, r))
         new_tau = min(tau + 0.5 * (r + r_new), self.end)
         if self.stop_tau is not None and new_tau >= self.stop_tau - 1e-9:
             new_tau, r_new = max(self.stop_tau, tau), 0.0

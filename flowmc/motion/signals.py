@@ -2,7 +2,9 @@
 
 A segment's output changes (digital, analog), a spindle change and a tool (pen) change happen as
 the segment starts, i.e. at the first setpoint (or step) tagged with that segment. At one start they
-come in that order: outputs, analog, spindle, tool.
+come in that order: outputs, analog, spindle, tool. A path's events (M0/M1/M60, M6: stops for the
+operator) are placed among those signals by segment too (``program_events``), so a job knows which
+signals come before a stop and which after it.
 """
 
 from __future__ import annotations
@@ -11,9 +13,9 @@ import numpy as np
 
 from flowmc.motion.path import Path
 from flowmc.motion.path_columns import DWELL
-from flowmc.motion.trajectory import Signal
+from flowmc.motion.trajectory import ProgramEvent, Signal
 
-__all__ = ["path_signals", "segment_start_times", "step_start_times"]
+__all__ = ["path_signals", "program_events", "segment_start_times", "step_start_times"]
 
 
 def segment_start_times(tags: np.ndarray, period: float, n_segments: int) -> np.ndarray:
@@ -43,9 +45,25 @@ def path_signals(path: Path, start_times) -> Signal:
     shows as an event too. A ``tool`` event (1 down, 0 up) marks each change of ``tool_down``;
     dwells do not change the tool. Read from the path's columns, all segments at once.
     """
-    cols = path.columns
     t0 = np.asarray(start_times, dtype=float).reshape(-1)
-    m = min(len(cols), len(t0))
+    seg_all, kind, channel, value = _signal_rows(path, min(len(path.columns), len(t0)))
+    return Signal(t0[seg_all], kind, channel, value)
+
+
+def program_events(path: Path) -> tuple[ProgramEvent, ...]:
+    """The path's events as a planned program carries them: segment, what, and how many of the
+    program's signals (``path_signals`` order) come before each."""
+    events = path.events()
+    if not events:
+        return ()
+    seg_all = _signal_rows(path, len(path.columns))[0]
+    before = np.searchsorted(seg_all, [i for i, _e in events], side="right")
+    return tuple(ProgramEvent(int(i), e.kind, e.message, e.tool, int(n)) for (i, e), n in zip(events, before))
+
+
+def _signal_rows(path: Path, m: int):
+    """Segment, kind, channel and value of every I/O change of the first ``m`` segments, in signal order."""
+    cols = path.columns
     seg, order, kind, channel, value = [], [], [], [], []
 
     def add(rows, rank: int, name: str, channels, values) -> None:
@@ -67,5 +85,4 @@ def path_signals(path: Path, start_times) -> Signal:
     add(rows, 3, "tool", np.zeros(len(rows)), cols.tool_down[rows])
     seg_all, order_all = np.concatenate(seg), np.concatenate(order)
     sort = np.lexsort((np.arange(len(seg_all)), order_all, seg_all))
-    return Signal(t0[seg_all[sort]], np.concatenate(kind)[sort], np.concatenate(channel)[sort],
-                  np.concatenate(value)[sort])
+    return seg_all[sort], np.concatenate(kind)[sort], np.concatenate(channel)[sort], np.concatenate(value)[sort]

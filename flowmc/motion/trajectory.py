@@ -3,17 +3,53 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
 from flowmc.motion.values import array_digest, frozen_array
 
-__all__ = ["Signal", "Trajectory", "Steps", "SIGNAL_KINDS"]
+__all__ = ["Signal", "Trajectory", "Steps", "SIGNAL_KINDS", "ProgramEvent"]
 
 #: Kinds of signal event: digital output bit, PWM frequency (Hz) and duty (%), DA volts, spindle rpm, and
 #: the tool (pen) state: value 1 = tool down, 0 = up, channel 0 (there is one). A device decides what the
 #: tool drives (the simulated card: a digital output; GRBL: a pair of commands).
 SIGNAL_KINDS = ("dout", "pwm_freq", "pwm_duty", "da", "spindle_rpm", "tool")
+
+
+class ProgramEvent(NamedTuple):
+    """A path event (``flowmc.motion.path.PathEvent``: M0/M1/M60, M6, an indexing stop) where a planned
+    program carries it: on path segment ``segment`` (a zero-length dwell, so motion is at rest there),
+    after the first ``signals_before`` of the program's own signals (those of the segments up to it:
+    an M5 before an M6 happens before the stop, an M3 after it once the job resumes)."""
+
+    segment: int
+    kind: str
+    message: str = ""
+    tool: int | None = None
+    signals_before: int = 0
+
+    @property
+    def code(self) -> str:
+        return {"pause": "M0", "optional_pause": "M1", "pallet_change": "M60", "tool_change": "M6"}.get(self.kind,
+                                                                                                     "index")
+
+    @property
+    def what(self) -> str:
+        """How a job names it: ``tool change (M6)``."""
+        return {"pause": "program pause", "optional_pause": "optional stop", "pallet_change": "pallet change",
+                "tool_change": "tool change"}.get(self.kind, "indexing stop") + (
+                    f" ({self.code})" if self.code != "index" else "")
+
+    @property
+    def said(self) -> str:
+        """What to tell the operator: the program's message, or the tool to load."""
+        return self.message or (f"change to tool T{self.tool}" if self.kind == "tool_change" and self.tool is not None
+                                else "")
+
+
+def _events(events) -> tuple[ProgramEvent, ...]:
+    return tuple(ProgramEvent(*e) for e in events)
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,9 +147,10 @@ class Trajectory:
     signals: Signal = field(default_factory=Signal)
     segment_names: tuple[str, ...] = ()
     segment_rapid: tuple[bool, ...] = ()
+    events: tuple[ProgramEvent, ...] = ()
 
     def __init__(self, positions, period: float, segment=None, axes=("X", "Y", "Z"), signals: Signal | None = None,
-                 segment_names=(), segment_rapid=()):
+                 segment_names=(), segment_rapid=(), events=()):
         pos = frozen_array(positions, ndim=2)
         if pos.shape[1] != len(axes):
             raise ValueError(f"positions have {pos.shape[1]} columns but {len(axes)} axes {tuple(axes)}")
@@ -129,6 +166,7 @@ class Trajectory:
         object.__setattr__(self, "signals", signals if signals is not None else Signal())
         object.__setattr__(self, "segment_names", _names(segment_names, self.segment))
         object.__setattr__(self, "segment_rapid", _rapid(segment_rapid, self.segment))
+        object.__setattr__(self, "events", _events(events))
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -159,7 +197,8 @@ class Trajectory:
 
     def digest(self) -> str:
         return array_digest("Trajectory", self.positions, self.period, self.segment, self.axes, self.signals.digest(),
-                            self.segment_names, *((self.segment_rapid,) if any(self.segment_rapid) else ()))
+                            self.segment_names, *((self.segment_rapid,) if any(self.segment_rapid) else ()),
+                            *((self.events,) if self.events else ()))
 
     def summary(self) -> dict:
         v = self.speed() if len(self) > 1 else np.zeros(1)
@@ -201,9 +240,10 @@ class Steps:
     signals: Signal = field(default_factory=Signal)
     segment_names: tuple[str, ...] = ()
     segment_rapid: tuple[bool, ...] = ()
+    events: tuple[ProgramEvent, ...] = ()
 
     def __init__(self, steps, step_mm, origin=None, tick: float = 0.0, segment=None, axes=("X", "Y"), signals=None,
-                 segment_names=(), segment_rapid=()):
+                 segment_names=(), segment_rapid=(), events=()):
         st = np.asarray(steps, dtype=np.int8)
         if st.ndim != 2 or st.shape[1] != len(axes):
             raise ValueError(f"steps must have shape (N, {len(axes)}) for axes {tuple(axes)}, got {st.shape}")
@@ -220,6 +260,7 @@ class Steps:
         object.__setattr__(self, "signals", signals if signals is not None else Signal())
         object.__setattr__(self, "segment_names", _names(segment_names, self.segment))
         object.__setattr__(self, "segment_rapid", _rapid(segment_rapid, self.segment))
+        object.__setattr__(self, "events", _events(events))
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -240,7 +281,8 @@ class Steps:
     def digest(self) -> str:
         return array_digest("Steps", self.steps, self.step_mm, self.origin, self.tick, self.segment, self.axes,
                             self.signals.digest(), self.segment_names,
-                            *((self.segment_rapid,) if any(self.segment_rapid) else ()))
+                            *((self.segment_rapid,) if any(self.segment_rapid) else ()),
+                            *((self.events,) if self.events else ()))
 
     def summary(self) -> dict:
         end = self.positions()[-1]

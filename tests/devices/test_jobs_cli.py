@@ -63,3 +63,12 @@ def test_start_at_needs_a_program_job():
     proc = subprocess.run([sys.executable, "-m", "flowmc", "run", GRAPH, "--start-at", "home:2"],
                           capture_output=True, text=True, timeout=120, cwd=REPO)
     assert proc.returncode == 2 and "'home' is not a program job (program jobs: card)" in proc.stderr
+
+
+def test_start_line_names_the_job_and_a_program_without_gcode_lines_says_so():
+    proc = subprocess.run([sys.executable, "-m", "flowmc", "run", GRAPH, "--start-line", "home:2"],
+                          capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 2 and "--start-line home:2: 'home' is not a program job" in proc.stderr
+    proc = subprocess.run([sys.executable, "-m", "flowmc", "run", GRAPH, "--start-line", "3"],
+                          capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode != 0 and "no motion at G-code line 3 or after it" in proc.stderr

@@ -52,11 +52,14 @@ class GrblDriver:
         self.overrides = {"feed": 100.0, "rapid": 100.0, "spindle": 100.0}
         self.lines: list = []
         self.ended: _Ended | None = None
+        self.paused: str | None = None  # the program stop GRBL is paused on (its line's source)
         self._reports = 0
 
     def run(self) -> DeviceLog:
         card, job = self.card, self.job
-        self.lines = motion_gcode(job.motion, card.machine, job.signals, card.tolerance, card.pen)
+        self.lines = motion_gcode(job.motion, card.machine, job.signals, card.tolerance, card.pen,
+                                  optional_stop=self.runner.status.optional_stop)
+        self.stops = {i for i, line in enumerate(self.lines) if line.text == "M0"}
         streamer = card.streamer
         streamer.poll = min(streamer.poll, POLL)
         self.events: list[Event] = []
@@ -84,6 +87,13 @@ class GrblDriver:
         state = st.status.get("state", "")
         if self.runner.state == "holding" and state.startswith("Hold:0"):
             self.runner.set_state("held", f"held at {self._where(st)}")
+        elif self.runner.state == "running" and state.startswith("Hold:0") and st.acked - 1 in self.stops:
+            self.stops.discard(st.acked - 1)  # once: a report from before the resume still says Hold:0
+            self.paused = self.lines[st.acked - 1].source  # GRBL paused on the program's M0 (its last line taken)
+            text = f"{self.paused}; Resume carries on"
+            self.events.append(Event("pause", self._t(st), "", text))
+            self._tick(st)
+            self.runner.set_state("held", text)
         elif self.runner.state == "stopping" and state.startswith("Hold:0"):
             self.card.streamer.soft_reset()  # at rest: the reset keeps the position and clears the rest
             raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
@@ -99,6 +109,7 @@ class GrblDriver:
             streamer.realtime(b"!")
             runner.set_state("holding", f"feed hold at {self._where(st)}")
         elif name == "resume" and state in ("holding", "held"):
+            self.paused = None
             streamer.realtime(b"~")
             runner.set_state("running", f"resumed at {self._where(st)}")
         elif name == "stop" and state in ("running", "holding", "held"):
@@ -110,6 +121,8 @@ class GrblDriver:
             runner.emit("log", f"{name} override {value:g} %", **{name: float(value)})
         elif name == "single_block":
             runner.emit("log", "single block is not a GRBL feature: ignored")
+        elif name == "optional_stop":
+            runner.emit("log", "the optional stop (M1) is set at Start on GRBL (GRBL ignores M1): unchanged")
         self.events.append(Event("job", self._t(st), "", f"{name} at {self._where(st)}"))
 
     # ------------------------------------------------------------------ telling
@@ -142,7 +155,10 @@ class GrblDriver:
         outputs = {"spindle_rpm": float(fs[1]) if len(fs) > 1 and ("S" in acc or "C" in acc) else 0.0,
                    "dout": [1] if "F" in acc else [], "tool_down": "S" in acc and self.card.pen is not None}
         source = self.lines[i].source if self.lines else ""
-        runner.emit("tick", t=self._t(st), commanded=here, actual=None, where=f"line {i + 1} ({source})",
+        where = f"line {i + 1} ({source})"
+        if self.paused is not None:  # the stop's own place and G-code line
+            source = where = self.paused
+        runner.emit("tick", t=self._t(st), commanded=here, actual=None, where=where,
                     line=gcode_line(source), progress=progress,
                     time_left=self.job.duration * (1.0 - progress) * 100.0 / max(self.overrides["feed"], 1.0),
                     outputs=outputs)

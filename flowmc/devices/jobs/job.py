@@ -18,6 +18,7 @@ import numpy as np
 
 from flowmc.devices.backends import DeviceOptions
 from flowmc.devices.preflight import PreflightReport
+from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
@@ -110,6 +111,23 @@ class Job:
             return self.operation if self.operation != "program" else "approach"
         return describe_segment(int(segment), self.segment_names)
 
+    def segment_at_line(self, line: int) -> tuple[int, str]:
+        """The segment (0-based) a start at G-code line ``line`` starts from, and what that assumes: the
+        line's first segment, or, for a line without motion of its own (a comment, an M-code), the first
+        segment of a later line. DeviceError when no segment comes from that line or after it."""
+        lines = [gcode_line(name) for name in self.segment_names]
+        later = [(ln, i) for i, ln in enumerate(lines) if ln is not None and ln >= line]
+        if not later:
+            known = [ln for ln in lines if ln is not None]
+            raise DeviceError(f"no motion at G-code line {line} or after it" + (
+                f" (the program's segments come from lines {min(known)}-{max(known)})" if known else
+                " (the program's segments carry no G-code lines)"), where=self.name or "job")
+        first, seg = min(later)
+        at = describe_segment(seg, self.segment_names)
+        if first != line:
+            return seg, f"G-code line {line} has no motion of its own: started at line {first}, {at}"
+        return seg, f"G-code line {line} is {at}"
+
     def describe(self) -> str:
         what = {"program": f"a {type(self.motion).__name__} program of {self.duration:.2f} s"
                            + (f" ({len(self.segment_names)} segments)" if self.segment_names else ""),
@@ -155,6 +173,7 @@ class JobStatus:
     rapid: float = 100.0
     spindle: float = 100.0
     single_block: bool = False
+    optional_stop: bool = False
     outputs: dict = field(default_factory=dict)
     message: str = ""
 

@@ -26,8 +26,10 @@ __all__ = ["program_job", "home_job", "jog_job", "io_job", "wait_job", "start_jo
 
 #: What ``Start.options`` may hold for jobs: pace ("instant", "realtime", "virtual"), speed (factor of
 #: real time for the simulated card), start_at ({node id: segment number from 1}), single_block,
+#: start_line ({node id: G-code line}), optional_stop (M1 stops the job),
 #: feed / rapid / spindle (initial overrides, %), tick_hz (position events per second), record.
-START_OPTIONS = ("pace", "speed", "start_at", "single_block", "feed", "rapid", "spindle", "tick_hz", "record")
+START_OPTIONS = ("pace", "speed", "start_at", "start_line", "single_block", "optional_stop", "feed", "rapid", "spindle",
+                 "tick_hz", "record")
 
 
 def program_job(device: str, machine: Machine, motion: Trajectory | Steps, signals: Signal | None = None,
@@ -100,9 +102,12 @@ def start_job(job: Job, after: DeviceLog | None, start: Any, node_id: str) -> Jo
     if unknown:
         raise DeviceError(f"unknown start option(s) {unknown}; known: {', '.join(START_OPTIONS)}", where=node_id)
     segment = (options.get("start_at") or {}).get(node_id)
+    line = (options.get("start_line") or {}).get(node_id)
     runner = JobRunner(job, after=after, pace=options.get("pace", "instant"), speed=float(options.get("speed", 1.0)),
                        start_at=None if segment is None else int(segment) - 1,
                        single_block=bool(options.get("single_block", False)),
+                       optional_stop=bool(options.get("optional_stop", False)),
+                       start_line=None if line is None else int(line),
                        tick_hz=float(options.get("tick_hz", 50.0)), record=bool(options.get("record", False)))
     overrides = {k: float(options[k]) for k in ("feed", "rapid", "spindle") if options.get(k) is not None}
     if overrides:

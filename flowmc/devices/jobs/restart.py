@@ -75,7 +75,7 @@ def plan_start(nominal: np.ndarray, segment: np.ndarray, signals: list[SignalRow
         row0 = int(rows[0])
         state = dict(outputs_now)
         for row, kind, ch, value in signals:
-            if row < row0:
+            if row <= row0 and kind != "pause":  # the segment's own start signals too; a stop is no state
                 state[(kind, 0 if kind == "tool" else ch)] = value
         changed = {k: v for k, v in state.items() if outputs_now.get(k, 0.0) != v}
         tool_at_start = changed.pop(("tool", 0), None)
@@ -139,7 +139,8 @@ def plan_start(nominal: np.ndarray, segment: np.ndarray, signals: list[SignalRow
     positions = np.vstack([approach[:-1], body]) if len(approach) > 1 else body
     shift = junction - row0
     seg = np.concatenate([np.full(junction, -1, dtype=int), segment[row0:]])
-    out_signals += [(row + shift, kind, ch, value) for row, kind, ch, value in signals if row >= row0]
+    out_signals += [(row + shift, kind, ch, value) for row, kind, ch, value in signals
+                    if row > row0 or row == row0 and (start_segment is None or kind == "pause")]
     out_signals.sort(key=lambda s: s[0])
     rapid_rows = np.concatenate([np.zeros(junction, dtype=bool), rapid[row0:]])
     return StartPlan(positions, seg, out_signals, rapid_rows, junction, row0, assumptions)

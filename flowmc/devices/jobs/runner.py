@@ -1,5 +1,5 @@
 """The JobRunner: streams one job to its device at the device's pace, owns the job's state machine,
-takes commands (hold, resume, stop, e-stop, overrides, single block) from any thread, and tells
+takes commands (hold, resume, stop, e-stop, overrides, single block, optional stop) from any thread, and tells
 listeners what happens (``JobEvent``).
 
 States: queued -> running -> (holding -> held -> running)* -> done; stop: stopping -> aborted;
@@ -73,14 +73,16 @@ def claim(spec: str, holder: str) -> Iterator[None]:
 class JobRunner:
     """Runs ``job`` once. ``after``: the log of the device operation before it (the simulated card
     carries on from its end state). ``start_at``: start from this segment (0-based; the state there is
-    rebuilt and the tool approaches safely, see ``restart``). ``tick_hz``: how often position events go out.
+    rebuilt and the tool approaches safely, see ``restart``). ``optional_stop``: the program's M1 stops
+    (M0, M60 and M6 always do; see ``pauses``). ``start_line``: start at this G-code line instead
+    (its segment, or the next line's that moves; said in ``assumptions``). ``tick_hz``: how often position events go out.
     ``record``: keep every commanded setpoint before the card rounds it to steps (``setpoints()``), so
     tests and benchmarks can check limits from the raw samples.
     """
 
     def __init__(self, job: Job, *, after: DeviceLog | None = None, pace: str = "instant", speed: float = 1.0,
                  start_at: int | None = None, single_block: bool = False, tick_hz: float = 50.0,
-                 record: bool = False):
+                 record: bool = False, optional_stop: bool = False, start_line: int | None = None):
         if pace not in PACES:
             raise DeviceError(f"unknown pace {pace!r}; known: {', '.join(PACES)}", where="job")
         if not speed > 0:
@@ -90,13 +92,18 @@ class JobRunner:
         self.pace = pace
         self.speed = float(speed)
         self.start_at = start_at
+        self.line_note = ""
+        if start_line is not None:  # start at a G-code line: the segment it is (or the next with motion)
+            if start_at is not None:
+                raise DeviceError("start at a segment or at a G-code line, not both", where="job")
+            self.start_at, self.line_note = job.segment_at_line(int(start_line))
         self.tick_hz = float(tick_hz)
         self.log: DeviceLog | None = None
         self.message = ""
         self.extra: dict = {}
         self.assumptions: list[str] = []
         self.trace: list | None = [] if record else None
-        self._status = JobStatus(axes=job.machine.names, single_block=single_block)
+        self._status = JobStatus(axes=job.machine.names, single_block=single_block, optional_stop=optional_stop)
         self._listeners: list[Callable[[JobEvent], None]] = []
         self._commands: list[tuple[str, object]] = []
         self._scheduled: list[tuple[float, str, object]] = []
@@ -194,6 +201,10 @@ class JobRunner:
     def set_single_block(self, on: bool) -> None:
         """Single block: stop (held) at the end of every segment; Resume runs the next one."""
         self._command("single_block", bool(on))
+
+    def set_optional_stop(self, on: bool) -> None:
+        """Optional stop: the program's M1 stops (held) only while this is on."""
+        self._command("optional_stop", bool(on))
 
     def at(self, t: float, command: str, value: object = None) -> None:
         """Give ``command`` when the job's clock reaches ``t`` s (tests on the virtual pace)."""

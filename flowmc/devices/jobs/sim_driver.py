@@ -2,7 +2,9 @@
 
 Streamed, a program runs through a ``Retimer`` (hold, stop, overrides and single block re-time the
 rest within every axis's limits) into a ``CardStream`` (limits, the e-stop input, the closed loop).
-Signals fire when the job's place in the program passes their time. Homing and "I/O now" run at
+Signals fire when the job's place in the program passes their time, and so do the program's
+operator stops (M0, M1 with the optional stop on, M60, M6: ``pauses``): the job comes to rest on
+the stop's row, holds (held) and Resume carries on. Homing and "I/O now" run at
 once on every pace (the card computes homing as one operation; it cannot be held), and so does a wait
 for an input (on the card's own clock: the world's input changes are scheduled on it).
 """
@@ -16,6 +18,7 @@ import numpy as np
 
 from flowmc.devices.jobs.card_driver import InstantDriver
 from flowmc.devices.jobs.job import Job, gcode_line, positions_of
+from flowmc.devices.jobs.pauses import last_tool_before, program_pauses
 from flowmc.devices.jobs.restart import plan_start
 from flowmc.devices.log import Change, DeviceLog, Event
 from flowmc.devices.sim.moves import line_move
@@ -94,11 +97,19 @@ class SimStream:
         motion = job.motion
         pos, seg, _T, tick = card.program_positions(motion)
         sig = card.checked_signals(motion, job.signals, tick, len(pos))
-        rows = [(max(math.ceil(t / T - 1e-9), 0), str(k), int(c), float(v))
-                for t, k, c, v in zip(sig.t, sig.kind, sig.channel, sig.value)]
+        rows = sorted([(max(math.ceil(t / T - 1e-9), 0), str(k), int(c), float(v))
+                       for t, k, c, v in zip(sig.t, sig.kind, sig.channel, sig.value)], key=lambda r: r[0])
+        scale = tick if isinstance(motion, Steps) and motion.tick <= 0 else 1.0  # untimed: times are ticks
+        own = np.maximum(np.ceil(np.asarray(motion.signals.t) * scale / T - 1e-9), 0).astype(int)
+        start = self.runner.start_at
+        found = [p for p in program_pauses(motion, np.asarray(seg), [r[0] for r in rows], own)
+                 if start is None or p[2].event.segment >= start]  # a stop before the start is behind it
+        self.pauses = [pause for _row, _place, pause in found]
+        for k, (row, place, _pause) in enumerate(found):
+            rows.insert(place + k, (row, "pause", k, 0.0))
         flags = np.asarray(motion.segment_rapid, dtype=bool)
         rapid = flags[seg] if flags.any() else np.zeros(len(pos), dtype=bool)
-        return pos, np.asarray(seg), sorted(rows, key=lambda r: r[0]), rapid
+        return pos, np.asarray(seg), rows, rapid
 
     def _outputs_now(self) -> dict:
         out = self.card._outputs
@@ -113,6 +124,8 @@ class SimStream:
         if job.operation in ("home", "io", "wait"):
             return SimInstant(runner, card).run()
         stream = CardStream(card)
+        self.pauses, self.paused = [], None
+        self.optional_stop = runner.status.optional_stop
         nominal, segment, signals, rapid = self._nominal()
         here = card._counts * card.step_mm
         try:
@@ -120,6 +133,13 @@ class SimStream:
                               start_segment=runner.start_at, where=job.where)
         except ValueError as exc:
             raise DeviceError(str(exc), where=job.name or "job") from None
+        if runner.start_at is not None and job.motion is not None:
+            tool = last_tool_before(job.motion, runner.start_at)
+            if tool is not None:
+                plan.assumptions.append(f"assumed: tool T{tool.tool} is loaded (the last tool change before it, "
+                                        f"{job.where(tool.segment)})")
+        if runner.line_note:
+            plan.assumptions.insert(0, runner.line_note)
         runner.assumptions = plan.assumptions
         for text in plan.assumptions:
             runner.emit("log", text)
@@ -170,6 +190,11 @@ class SimStream:
                     return self._finish("aborted", f"stopped by the operator at {self._where()}")
                 if state == "holding":
                     runner.set_state("held", f"held at {self._where()}")
+                elif self.paused is not None:
+                    self._tick()
+                    text = self.paused.describe()
+                    self.events.append(Event("pause", card.clock, "", text))
+                    runner.set_state("held", text)
                 elif self._single_block_stop():
                     done = int(self.segment[max(int(rt.tau + 1e-9) - 1, 0)])
                     runner.set_state("held", f"single block: held at the end of {self.job.where(done)}")
@@ -181,17 +206,21 @@ class SimStream:
             if realtime:
                 runner.sleep(1.0 / runner.tick_hz)
 
+    def _fire(self, tau: float) -> None:
+        """Fire the signals due by ``tau``, up to an operator stop (nothing after it fires until Resume)."""
+        while self.paused is None and self.pending and self.pending[0][0] <= tau + 1e-9:
+            self._signal(*self.pending.pop(0)[1:])
+
     def _advance(self, periods: int) -> None:
         """Run ``periods`` setpoints through the card, firing signals where the job passes them."""
         rt, stream = self.rt, self.stream
-        while self.pending and self.pending[0][0] <= rt.tau + 1e-9:  # due where the job stands now
-            self._signal(*self.pending.pop(0)[1:])
-        points, taus = rt.advance(periods)
+        self._fire(rt.tau)  # due where the job stands now
+        points, taus = self._run_periods(periods)
         periods = len(points)
         if self.runner.trace is not None:
             self.runner.trace.append(points)
         j = 0
-        while self.pending and j < periods:
+        while self.pending and self.paused is None and j < periods:
             row = self.pending[0][0]
             k = int(np.searchsorted(taus[j:], row - 1e-9)) + j
             if k >= periods:
@@ -200,15 +229,48 @@ class SimStream:
             if stream.fault is not None or ran < k + 1 - j:
                 return
             j = k + 1
-            while self.pending and self.pending[0][0] <= taus[k] + 1e-9:
-                self._signal(*self.pending.pop(0)[1:])
+            self._fire(taus[k])
         if j < periods:
             stream.move(points[j:])
-        if rt.done and self.pending:  # signals at or after the last setpoint
-            while self.pending:
-                self._signal(*self.pending.pop(0)[1:])
+        if rt.done:  # signals (and stops) at or after the last setpoint
+            self._fire(math.inf)
+
+    def _run_periods(self, periods: int) -> tuple[np.ndarray, np.ndarray]:
+        """``periods`` setpoints from the retimer, coming to rest exactly on the next operator stop's row.
+
+        The planner already stops the motion there (a dwell), so the job runs the plan as it is up to
+        the last whole period before the row and only then aims at the row itself, which it reaches at
+        rest within a period: a stop aimed at from afar would re-time the whole approach.
+        """
+        rt = self.rt
+        row = self._next_pause_row()
+        if row is None or rt.hold or rt.r <= 0 or (rt.stop_tau is not None and rt.stop_tau <= row):
+            return rt.advance(periods)
+        before = max(int(math.floor((row - rt.tau) / rt.r + 1e-9)), 0)
+        if before > periods:
+            return rt.advance(periods)
+        first = rt.advance(before) if before else (np.empty((0, rt.q.shape[1])), np.empty(0))
+        rt.stop_at(row)
+        rest = rt.advance(periods - len(first[0]))
+        return np.vstack([first[0], rest[0]]), np.concatenate([first[1], rest[1]])
+
+    def _next_pause_row(self) -> float | None:
+        return next((float(row) for row, kind, ch, _v in self.pending
+                     if kind == "pause" and self.pauses[ch].stops(self.optional_stop)), None)
 
     def _signal(self, kind: str, channel: int, value: float) -> None:
+        if kind == "pause":
+            pause = self.pauses[channel]
+            if not pause.stops(self.optional_stop):
+                self.runner.emit("log", f"optional stop is off: {pause.where} (M1) runs on")
+            elif self.rt.done:
+                self.runner.emit("log", f"{pause.describe().split(';')[0]}: the program ends there")
+            else:
+                self.paused = pause
+                rt = self.rt
+                if rt.stop_tau is None or rt.tau < rt.stop_tau - 1e-9:  # not aimed at (cannot happen): hold
+                    rt.hold = True
+            return
         if kind == "spindle_rpm":
             self.program_rpm = value
             value = self._spindle_value()
@@ -236,7 +298,12 @@ class SimStream:
                 note = "feed hold"
             elif name == "resume" and state in ("holding", "held"):
                 rt.hold = False
-                if self.single_block:
+                if self.paused is not None and state == "held":
+                    runner.emit("log", f"resumed after the {self.paused.describe().split(';')[0]}")
+                    self.paused = None
+                    if rt.stop_tau is not None and abs(rt.tau - rt.stop_tau) < 1e-9:
+                        rt.r = 1.0  # the plan itself starts from rest here: run it as planned, sample for sample
+                if rt.stop_tau is None or rt.tau >= rt.stop_tau - 1e-9:  # the stop it was heading for is passed
                     rt.stop_at(self._next_stop())
                 runner.set_state("running", f"resumed at {self._where()}")
                 note = "resume"
@@ -262,15 +329,27 @@ class SimStream:
             elif name == "single_block":
                 self.single_block = bool(value)
                 runner.emit("log", f"single block {'on' if value else 'off'}", single_block=bool(value))
-                if not (rt.stop_tau is not None and rt.tau < self.plan.junction):
-                    rt.stop_at(self._next_stop() if value else None)
+                self._retarget()
                 note = f"single block {'on' if value else 'off'}"
+            elif name == "optional_stop":
+                self.optional_stop = bool(value)
+                runner.emit("log", f"optional stop (M1) {'on' if value else 'off'}", optional_stop=bool(value))
+                self._retarget()
+                note = f"optional stop {'on' if value else 'off'}"
             if note:
                 self.events.append(Event("job", card.clock, "", f"{note} at {self._where()}"))
         return False
 
+    def _retarget(self) -> None:
+        """Aim at the next stop after a switch changed; not while held (Resume does) or on the approach."""
+        rt = self.rt
+        if self.runner.state == "running" and self.paused is None and not (rt.stop_tau is not None
+                                                                           and rt.tau < self.plan.junction):
+            rt.stop_at(self._next_stop())
+
     def _next_stop(self) -> float | None:
-        """Single block: the first segment end the job can still stop at (None: run on)."""
+        """Single block: the first segment end the job can still stop at (None: run on). The program's
+        operator stops are aimed at as the job comes to them (``_run_periods``)."""
         rt = self.rt
         if not self.single_block:
             return None
@@ -300,9 +379,12 @@ class SimStream:
         seg = self._segment_now()
         names = job.segment_names
         commanded = card._counts * card.step_mm
+        where = job.where(seg)
+        line = gcode_line(names[seg]) if seg is not None and seg < len(names) else None
+        if self.paused is not None:  # stopped for the operator: the stop's own line (the M0, the M6)
+            seg, where, line = self.paused.event.segment, self.paused.where, self.paused.line
         self.runner.emit("tick", t=card.clock, commanded=positions_of(commanded),
-                         actual=positions_of(card.position()), segment=seg, where=job.where(seg),
-                         line=gcode_line(names[seg]) if seg is not None and seg < len(names) else None,
+                         actual=positions_of(card.position()), segment=seg, where=where, line=line,
                          progress=float(rt.tau / rt.end) if rt.end > 0 else 1.0, time_left=rt.time_left(),
                          outputs=_outputs_status(card))
 
