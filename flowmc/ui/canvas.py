@@ -36,6 +36,7 @@ _BATCHES = ("comment", "notebar", "frame", "body", "title", "badge", "ports")
 WIRE_WORLD = 0.035  # wire thickness, world units (3.5 canvas px)
 LABEL_FONT = 15.0  # free labels and comment titles, canvas px
 COMMENT_FONT = 14.0
+MIN_TITLE_PX = 8.0  # node titles on screen at Fit, at least, when the graph is not much bigger than the view
 
 
 class Canvas:
@@ -87,8 +88,13 @@ class Canvas:
         """Light or dark canvas: grid and node colours (the page's background follows viser's theme)."""
         self.theme = draw.THEMES[name]
         self._grid_box = None
+        for client in list(self.server.get_clients().values()):
+            self._paint_labels(client)
         if self.boxes:
             self.sync()
+
+    def _paint_labels(self, client: viser.ClientHandle) -> None:
+        viser_internals.set_label_colors(client, self.theme.label_ink, self.theme.label_backing)
 
     def _draw_grid(self) -> None:
         """A subtle grid every 100 canvas px, drawn as thin lines around the graph (a full-screen grid shader
@@ -122,6 +128,8 @@ class Canvas:
         camera.setup(client, frame_again)
         client.camera.on_update(lambda cam: self._zoomed(cam))
         self._send_tips([client])
+        if self.theme is not draw.LIGHT:  # viser's own label colours are the light theme's
+            self._paint_labels(client)
 
     def _zoomed(self, cam: Any) -> None:
         per_px = camera.screen_px_per_world(cam)
@@ -136,7 +144,7 @@ class Canvas:
             if not self.server.get_clients():  # details (port names, previews) only if the first view can read them
                 self.texts.zoom(per_px * layout.SCALE)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
-            camera.frame(client, box)
+            camera.frame(client, box, legible=MIN_TITLE_PX / (layout.TITLE_FONT * layout.SCALE))
 
     def view_centre(self) -> tuple[float, float]:
         """Canvas pixels at the middle of the first client's view (where palette nodes appear)."""
