@@ -66,6 +66,8 @@ class Canvas:
         self._drag: dict[str, Any] | None = None
         self._revision = -1  # the state revision the geometry was made for
         self._tips: list[tuple[float, float, float, float, str]] = []
+        self._port_memo: tuple[tuple, draw.Quads] | None = None
+        self._wire_memo: tuple[tuple, np.ndarray, np.ndarray, dict] | None = None
         scene = server.scene
         scene.set_up_direction("+y")
         scene.configure_default_lights(False)
@@ -289,13 +291,38 @@ class Canvas:
     def _draw_shapes(self) -> None:
         state, t = self.state, self.theme
         quads = draw.node_quads(self.boxes, self.status, set(state.selected_nodes), self.problems, t)
-        quads["ports"] = draw.port_quads(self.boxes, self.highlight, t)
+        quads["ports"] = self._ports()
         quads.update(draw.note_quads(self.notes, set(state.selected_notes), t))
-        self.port_index = [(b.node_id, s) for b in self.boxes for s in b.inputs + b.outputs]
         for name in _BATCHES:
             self._batch(name, quads[name])
-        segs, cols = draw.wire_segments(self.curves, self.types, set(state.selected_wires), self.broken, t)
-        self._set_lines(segs, cols)
+        self._set_lines(*self._wires())
+
+    def _ports(self) -> draw.Quads:
+        """The port squares; made again only when the boxes, the theme or the drag highlight changed (a selection
+        change on a 120-node graph spent half its server time remaking the same arrays)."""
+        key = (self.boxes, self.theme, self.highlight)
+        if self._port_memo is None or any(a is not b for a, b in zip(self._port_memo[0], key)):
+            self.port_index = [(b.node_id, s) for b in self.boxes for s in b.inputs + b.outputs]
+            self._port_memo = (key, draw.port_quads(self.boxes, self.highlight, self.theme))
+        return self._port_memo[1]
+
+    def _wires(self) -> tuple[np.ndarray, np.ndarray]:
+        """Wire segments and colours: the geometry made once per set of curves, the selection painted over it."""
+        key = (self.curves, self.theme, self.broken)
+        if self._wire_memo is None or any(a is not b for a, b in zip(self._wire_memo[0], key)):
+            segs, cols = draw.wire_segments(self.curves, self.types, set(), self.broken, self.theme)
+            spans, at = {}, 0
+            for wire, pts in self.curves.items():
+                spans[wire] = (at, at + len(pts) - 1)
+                at += len(pts) - 1
+            self._wire_memo = (key, segs, cols, spans)
+        _key, segs, cols, spans = self._wire_memo
+        chosen = [spans[w] for w in self.state.selected_wires if w in spans]
+        if chosen:
+            cols = cols.copy()
+            for a, b in chosen:
+                cols[a:b] = self.theme.selected
+        return segs, cols
 
     def _batch(self, name: str, quads: draw.Quads) -> None:
         """Update one batched mesh, sending only the arrays that changed (a new mesh when the count does)."""
