@@ -146,7 +146,10 @@ def _series(value: Any) -> tuple[list[tuple[str, np.ndarray, np.ndarray]], str, 
         if len(numeric) < 2:
             return None
         x = np.asarray(value[numeric[0]], dtype=float)
-        lines = [(n, *_thin(x, np.asarray(value[n], dtype=float))) for n in numeric[1:5]]
+        lines = []
+        for name in numeric[1:5]:
+            xs, ys = _thin(x, np.asarray(value[name], dtype=float))
+            lines.append((name, xs, ys))
         return lines, numeric[0], "", False
     return None
 

@@ -311,7 +311,8 @@ _LABEL_COLORS_JS = """
       const orig = mat.userData.flowmcLabel || mat.fragmentShader;
       let want = null;
       if (orig.includes(INK)) want = orig.replace(INK, `gl_FragColor = vec4(${rgb(c.ink)}, a);`);
-      else if (orig.includes(BACK)) want = orig.replace(BACK, `gl_FragColor = vec4(${rgb(c.back)}, ${(c.back[3] / 255).toFixed(4)} * vAlpha);`);
+      else if (orig.includes(BACK))
+        want = orig.replace(BACK, `gl_FragColor = vec4(${rgb(c.back)}, ${(c.back[3] / 255).toFixed(4)} * vAlpha);`);
       if (want === null) return;
       mat.userData.flowmcLabel = orig;
       if (mat.fragmentShader !== want) { mat.fragmentShader = want; mat.needsUpdate = true; changed = true; }

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from browser_helpers import EditorPage, chromium, wait_until
-from editor_graphs import example_file
 from PIL import Image
 
+from browser_helpers import EditorPage, chromium, wait_until
+from editor_graphs import example_file
 from flowmc.ui import camera, canvas, canvas_draw, layout
 from flowmc.ui.app import Editor
 
