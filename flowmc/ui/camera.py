@@ -15,6 +15,7 @@ from flowmc.ui import viser_internals
 __all__ = ["FOV", "setup", "frame", "initial", "screen_rect_to_world", "screen_px_per_world", "world_at"]
 
 FOV = math.radians(12.0)
+LEGIBLE_STRETCH = 1.4  # how much bigger than the view a graph may be for Fit to keep its text legible
 SETTLE_S = 5.0  # the page lays out its panels after it connects: frame again while its size settles
 _FRAMED: dict[int, tuple[float, float, float]] = {}  # per client: the camera position framing last set
 
@@ -42,16 +43,28 @@ def setup(client: viser.ClientHandle, frame_again: Callable[[], None]) -> None:
     client.camera.on_update(refit)
 
 
-def frame(client: viser.ClientHandle, box: tuple[float, float, float, float], margin: float = 0.4) -> None:
-    """Look straight down on the world rectangle ``box`` (xmin, ymin, xmax, ymax), all of it in view."""
+def frame(client: viser.ClientHandle, box: tuple[float, float, float, float], margin: float = 0.4,
+          legible: float = 0.0) -> None:
+    """Look straight down on the world rectangle ``box`` (xmin, ymin, xmax, ymax), all of it in view.
+
+    ``legible``: screen pixels per world unit below which text is hard to read. When showing all of ``box``
+    would go below it, but a view at ``legible`` still shows at least 1/``LEGIBLE_STRETCH`` of the box
+    each way (a docked panel opened beside a graph that just fitted), the view stays at ``legible`` and
+    shows the box's left (where sources are) and top; a bigger graph is shown whole, as an overview."""
     cam = client.camera
     w, h = box[2] - box[0] + 2 * margin, box[3] - box[1] + 2 * margin
     width_px, height_px = max(cam.image_width, 200), max(cam.image_height, 200)
     per_px = max(w / width_px, h / height_px)  # world units per pixel
+    cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
+    if legible > 0 and 1 / legible < per_px <= LEGIBLE_STRETCH / legible:
+        per_px = 1 / legible
+        if w > width_px * per_px:
+            cx = box[0] - margin + width_px * per_px / 2
+        if h > height_px * per_px:
+            cy = box[3] + margin - height_px * per_px / 2
     # FOV, not cam.fov: until the browser has applied our field of view, the camera it reports still has its
     # own (much wider), and framing with that opened about one load in fifteen zoomed in seven times.
     dist = max(per_px * height_px / (2 * math.tan(FOV / 2)), 2.0)
-    cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
     _FRAMED[client.client_id] = (cx, cy, dist)
     with client.atomic():
         cam.position = (cx, cy, dist)

@@ -36,6 +36,7 @@ _BATCHES = ("comment", "notebar", "frame", "body", "title", "badge", "ports")
 WIRE_WORLD = 0.035  # wire thickness, world units (3.5 canvas px)
 LABEL_FONT = 15.0  # free labels and comment titles, canvas px
 COMMENT_FONT = 14.0
+MIN_TITLE_PX = 8.0  # node titles on screen at Fit, at least, when the graph is not much bigger than the view
 
 
 class Canvas:
@@ -65,6 +66,8 @@ class Canvas:
         self._drag: dict[str, Any] | None = None
         self._revision = -1  # the state revision the geometry was made for
         self._tips: list[tuple[float, float, float, float, str]] = []
+        self._port_memo: tuple[tuple, draw.Quads] | None = None
+        self._wire_memo: tuple[tuple, np.ndarray, np.ndarray, dict] | None = None
         scene = server.scene
         scene.set_up_direction("+y")
         scene.configure_default_lights(False)
@@ -87,8 +90,13 @@ class Canvas:
         """Light or dark canvas: grid and node colours (the page's background follows viser's theme)."""
         self.theme = draw.THEMES[name]
         self._grid_box = None
+        for client in list(self.server.get_clients().values()):
+            self._paint_labels(client)
         if self.boxes:
             self.sync()
+
+    def _paint_labels(self, client: viser.ClientHandle) -> None:
+        viser_internals.set_label_colors(client, self.theme.label_ink, self.theme.label_backing)
 
     def _draw_grid(self) -> None:
         """A subtle grid every 100 canvas px, drawn as thin lines around the graph (a full-screen grid shader
@@ -122,6 +130,8 @@ class Canvas:
         camera.setup(client, frame_again)
         client.camera.on_update(lambda cam: self._zoomed(cam))
         self._send_tips([client])
+        if self.theme is not draw.LIGHT:  # viser's own label colours are the light theme's
+            self._paint_labels(client)
 
     def _zoomed(self, cam: Any) -> None:
         per_px = camera.screen_px_per_world(cam)
@@ -136,7 +146,7 @@ class Canvas:
             if not self.server.get_clients():  # details (port names, previews) only if the first view can read them
                 self.texts.zoom(per_px * layout.SCALE)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
-            camera.frame(client, box)
+            camera.frame(client, box, legible=MIN_TITLE_PX / (layout.TITLE_FONT * layout.SCALE))
 
     def view_centre(self) -> tuple[float, float]:
         """Canvas pixels at the middle of the first client's view (where palette nodes appear)."""
@@ -281,13 +291,38 @@ class Canvas:
     def _draw_shapes(self) -> None:
         state, t = self.state, self.theme
         quads = draw.node_quads(self.boxes, self.status, set(state.selected_nodes), self.problems, t)
-        quads["ports"] = draw.port_quads(self.boxes, self.highlight, t)
+        quads["ports"] = self._ports()
         quads.update(draw.note_quads(self.notes, set(state.selected_notes), t))
-        self.port_index = [(b.node_id, s) for b in self.boxes for s in b.inputs + b.outputs]
         for name in _BATCHES:
             self._batch(name, quads[name])
-        segs, cols = draw.wire_segments(self.curves, self.types, set(state.selected_wires), self.broken, t)
-        self._set_lines(segs, cols)
+        self._set_lines(*self._wires())
+
+    def _ports(self) -> draw.Quads:
+        """The port squares; made again only when the boxes, the theme or the drag highlight changed (a selection
+        change on a 120-node graph spent half its server time remaking the same arrays)."""
+        key = (self.boxes, self.theme, self.highlight)
+        if self._port_memo is None or any(a is not b for a, b in zip(self._port_memo[0], key)):
+            self.port_index = [(b.node_id, s) for b in self.boxes for s in b.inputs + b.outputs]
+            self._port_memo = (key, draw.port_quads(self.boxes, self.highlight, self.theme))
+        return self._port_memo[1]
+
+    def _wires(self) -> tuple[np.ndarray, np.ndarray]:
+        """Wire segments and colours: the geometry made once per set of curves, the selection painted over it."""
+        key = (self.curves, self.theme, self.broken)
+        if self._wire_memo is None or any(a is not b for a, b in zip(self._wire_memo[0], key)):
+            segs, cols = draw.wire_segments(self.curves, self.types, set(), self.broken, self.theme)
+            spans, at = {}, 0
+            for wire, pts in self.curves.items():
+                spans[wire] = (at, at + len(pts) - 1)
+                at += len(pts) - 1
+            self._wire_memo = (key, segs, cols, spans)
+        _key, segs, cols, spans = self._wire_memo
+        chosen = [spans[w] for w in self.state.selected_wires if w in spans]
+        if chosen:
+            cols = cols.copy()
+            for a, b in chosen:
+                cols[a:b] = self.theme.selected
+        return segs, cols
 
     def _batch(self, name: str, quads: draw.Quads) -> None:
         """Update one batched mesh, sending only the arrays that changed (a new mesh when the count does)."""

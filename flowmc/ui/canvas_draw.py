@@ -33,6 +33,8 @@ class Theme:
     comment_bar: tuple[int, int, int]
     label_back: tuple[int, int, int]
     dim_port: tuple[int, int, int]
+    label_ink: tuple[int, int, int] = (0, 0, 0)  # text labels: ink on a backing (RGBA) that lets the node show through
+    label_backing: tuple[int, int, int, int] = (255, 255, 255, 217)
 
 
 LIGHT = Theme(
@@ -50,7 +52,7 @@ DARK = Theme(
             "ready": (44, 80, 140), "stale": (140, 96, 30), "waiting": (80, 70, 110)},
     frame=(100, 106, 118), selected=(255, 150, 20), problem=(240, 70, 70), title_bar=(78, 84, 98),
     terminal=(48, 70, 110), comment=(70, 64, 40), comment_bar=(112, 100, 50), label_back=(60, 60, 66),
-    dim_port=(84, 86, 92))
+    dim_port=(84, 86, 92), label_ink=(232, 235, 240), label_backing=(30, 33, 40, 200))
 THEMES = {"light": LIGHT, "dark": DARK}
 STATUS_COLORS = LIGHT.status
 FRAME_SELECTED = LIGHT.selected

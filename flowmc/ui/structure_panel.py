@@ -319,6 +319,6 @@ class StructureUI:
                 unit = value_view.unit_of(split_ref(name)[1] if "." in name else name, description)
                 handles.append(gui.add_markdown(md("**{}**{}", name, f" ({description})" if description else "")
                                                 + "\n\n" + value_view.describe(value, unit)))
-                fig = value_view.figure(value)
-                if fig is not None:
-                    handles.append(gui.add_plotly(fig, aspect=1.6))
+                svg = value_view.chart(value)
+                if svg is not None:
+                    handles.append(gui.add_html(svg))

@@ -1,5 +1,5 @@
 """How a value looks in the editor's probes and front-panel indicators: a few lines of text (escaped
-markdown) and, for a path, a trajectory or a numeric table, a small plotly chart. No viser here."""
+markdown) and, for a path, a trajectory or a numeric table, a small SVG chart. No viser here."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from flowmc.motion.path import Path
 from flowmc.motion.table import Table
 from flowmc.motion.trajectory import Trajectory
 from flowmc.runtime.executor import summarize
-from flowmc.ui.text import escape_md, md
+from flowmc.ui.text import escape_html, escape_md, md
 
-__all__ = ["describe", "short", "figure", "unit_of", "TABLE_ROWS"]
+__all__ = ["describe", "short", "chart", "unit_of", "TABLE_ROWS"]
 
 TABLE_ROWS = 5  # rows of a table shown
 _PLOT_POINTS = 400
@@ -127,31 +127,71 @@ def _thin(*columns: np.ndarray) -> tuple[np.ndarray, ...]:
     return tuple(c[keep] for c in columns)
 
 
-def figure(value: Any, title: str = "") -> Any:
-    """A small plotly figure for a path (XY), a trajectory (speed over time) or a table with two numeric
-    columns or more (the others over the first); None for anything else."""
-    import plotly.graph_objects as go
+_SERIES = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e")
+_W, _H, _PAD_L, _PAD_B, _PAD = 300, 170, 46, 30, 8
 
+
+def _series(value: Any) -> tuple[list[tuple[str, np.ndarray, np.ndarray]], str, str, bool] | None:
+    """(named x/y series, x title, y title, equal axes) for a path (XY), a trajectory (speed over time) or a
+    table with two numeric columns or more (the others over the first); None for anything else."""
     if isinstance(value, Path) and len(value):
         pts, _seg = value.sample(0.05)
         x, y = _thin(pts[:, 0], pts[:, 1])
-        traces = [go.Scatter(x=x, y=y, mode="lines", name="XY")]
-        axes = {"xaxis_title": "X (mm)", "yaxis_title": "Y (mm)", "yaxis_scaleanchor": "x"}
-    elif isinstance(value, Trajectory):
+        return [("XY", x, y)], "X (mm)", "Y (mm)", True
+    if isinstance(value, Trajectory):
         t, v = _thin(*_speeds(value))
-        traces = [go.Scatter(x=t, y=v, mode="lines", name="speed")]
-        axes = {"xaxis_title": "t (s)", "yaxis_title": "speed (mm/s)"}
-    elif isinstance(value, Table) and len(value) > 1:
+        return ([("speed", t, v)], "t (s)", "speed (mm/s)", False) if len(t) else None
+    if isinstance(value, Table) and len(value) > 1:
         numeric = [n for n in value.names if np.issubdtype(np.asarray(value[n]).dtype, np.number)]
         if len(numeric) < 2:
             return None
         x = np.asarray(value[numeric[0]], dtype=float)
-        traces = [go.Scatter(x=x, y=np.asarray(value[n], dtype=float), mode="lines+markers", name=n)
-                  for n in numeric[1:5]]
-        axes = {"xaxis_title": numeric[0]}
-    else:
+        lines = []
+        for name in numeric[1:5]:
+            xs, ys = _thin(x, np.asarray(value[name], dtype=float))
+            lines.append((name, xs, ys))
+        return lines, numeric[0], "", False
+    return None
+
+
+def chart(value: Any) -> str | None:
+    """A small line chart as inline SVG (html): a path's XY, a trajectory's speed over time, a table's numeric
+    columns over its first; None for anything else. Drawn here rather than with plotly: the first plotly chart
+    makes the browser evaluate 4.8 MB of plotly.js, which froze the editor's page for about 2 s after a Run."""
+    found = _series(value)
+    if found is None:
         return None
-    fig = go.Figure(traces)
-    fig.update_layout(title=title or None, margin={"l": 40, "r": 10, "t": 30 if title else 10, "b": 35}, height=220,
-                      showlegend=len(traces) > 1, **axes)
-    return fig
+    lines, x_title, y_title, equal = found
+    xs = np.concatenate([x for _n, x, _y in lines])
+    ys = np.concatenate([y for _n, _x, y in lines])
+    ok = np.isfinite(xs) & np.isfinite(ys)
+    if not ok.any():
+        return None
+    x0, x1, y0, y1 = float(xs[ok].min()), float(xs[ok].max()), float(ys[ok].min()), float(ys[ok].max())
+    w, h = _W - _PAD_L - _PAD, _H - _PAD_B - _PAD
+    sx, sy = w / max(x1 - x0, 1e-12), h / max(y1 - y0, 1e-12)
+    if equal:
+        sx = sy = min(sx, sy)
+    ox = _PAD_L + (w - (x1 - x0) * sx) / 2
+    oy = _PAD + h - (h - (y1 - y0) * sy) / 2
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {_W} {_H}" width="100%" '
+             f'style="display:block;font:10px sans-serif;color:inherit" role="img">',
+             f'<rect x="{_PAD_L}" y="{_PAD}" width="{w}" height="{h}" fill="none" stroke="currentColor" '
+             f'stroke-opacity=".3"/>']
+    for k, (_name, x, y) in enumerate(lines):
+        keep = np.isfinite(x) & np.isfinite(y)
+        pts = " ".join(f"{ox + (a - x0) * sx:.1f},{oy - (b - y0) * sy:.1f}" for a, b in zip(x[keep], y[keep]))
+        parts.append(f'<polyline points="{pts}" fill="none" stroke="{_SERIES[k % len(_SERIES)]}" stroke-width="1.5"/>')
+    bottom, right = _PAD + h, _PAD_L + w
+    ticks = ((_PAD_L, bottom + 12, "start", _number(x0)), (right, bottom + 12, "end", _number(x1)),
+             (_PAD_L - 3, bottom, "end", _number(y0)), (_PAD_L - 3, _PAD + 8, "end", _number(y1)),
+             ((_PAD_L + right) / 2, bottom + 24, "middle", x_title))
+    parts += [f'<text x="{x:.1f}" y="{y:.1f}" text-anchor="{a}" fill="currentColor">{escape_html(t, 40)}</text>'
+              for x, y, a, t in ticks]
+    if y_title:
+        parts.append(f'<text transform="translate(10 {_PAD + h / 2:.1f}) rotate(-90)" text-anchor="middle" '
+                     f'fill="currentColor">{escape_html(y_title, 40)}</text>')
+    if len(lines) > 1:
+        parts += [f'<text x="{right - 4}" y="{_PAD + 12 + 12 * k}" text-anchor="end" fill="{_SERIES[k % len(_SERIES)]}">'
+                  f'{escape_html(name, 30)}</text>' for k, (name, _x, _y) in enumerate(lines)]
+    return "".join(parts) + "</svg>"

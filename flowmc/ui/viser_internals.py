@@ -51,7 +51,7 @@ from viser import _messages
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
 __all__ = ["guarded_server", "lock_flat_camera", "fold_narrow_controls", "set_page_title", "install_page", "download",
-           "run_js", "set_tips",
+           "run_js", "set_tips", "set_label_colors",
            "MAX_UPLOAD_BYTES", "CHANNEL_LABEL"]
 
 MAX_UPLOAD_BYTES = 32 * 1024 * 1024  # a graph file is far smaller; G-code files are not uploaded
@@ -290,6 +290,44 @@ def install_page(client: Any, channel: Any) -> None:
 def set_tips(client: Any, tips: list[tuple[float, float, float, float, str]]) -> None:
     """Hover texts for canvas rectangles (world xmin, ymin, xmax, ymax): the full titles of cut node titles."""
     _send(client, f"window.flowmc && (window.flowmc.tips = {json.dumps(tips)});")
+
+
+# viser draws every label with black ink on a white, 85 % opaque backing (two fixed fragment shaders): on the dark
+# canvas that is a white box on every node. This recolours those two shaders in the label materials (found by
+# their source, kept in userData so a theme change can recolour again), now and for materials made later.
+_LABEL_COLORS_JS = """
+(function flowmcLabels(ink, back) {
+  const f = window.flowmc = window.flowmc || {};
+  f.labelColors = { ink: ink, back: back };
+  const INK = "gl_FragColor = vec4(0.0, 0.0, 0.0, a);", BACK = "gl_FragColor = vec4(1.0, 1.0, 1.0, 0.85 * vAlpha);";
+  const rgb = (c) => c.slice(0, 3).map(v => (v / 255).toFixed(4)).join(", ");
+  f.paintLabels = () => {
+    const m = window.__viserMutable, c = f.labelColors;
+    if (!m || !m.scene || !c) return;
+    let changed = false;
+    m.scene.traverse(o => {
+      const mat = o.material;
+      if (!mat || typeof mat.fragmentShader !== "string") return;
+      const orig = mat.userData.flowmcLabel || mat.fragmentShader;
+      let want = null;
+      if (orig.includes(INK)) want = orig.replace(INK, `gl_FragColor = vec4(${rgb(c.ink)}, a);`);
+      else if (orig.includes(BACK))
+        want = orig.replace(BACK, `gl_FragColor = vec4(${rgb(c.back)}, ${(c.back[3] / 255).toFixed(4)} * vAlpha);`);
+      if (want === null) return;
+      mat.userData.flowmcLabel = orig;
+      if (mat.fragmentShader !== want) { mat.fragmentShader = want; mat.needsUpdate = true; changed = true; }
+    });
+    if (changed && m.requestRender) m.requestRender();
+  };
+  if (!f.labelTimer) f.labelTimer = setInterval(f.paintLabels, 400);  // labels made later get the colours too
+  f.paintLabels();
+})(INK_RGB, BACK_RGBA);
+"""
+
+
+def set_label_colors(client: Any, ink: tuple[int, int, int], back: tuple[int, int, int, int]) -> None:
+    """Canvas labels in ``client``'s page with ``ink`` text on a ``back`` (RGBA, 0-255) backing."""
+    _send(client, _LABEL_COLORS_JS.replace("INK_RGB", json.dumps(list(ink))).replace("BACK_RGBA", json.dumps(list(back))))
 
 
 def download(client: Any, name: str, text: str) -> None:
