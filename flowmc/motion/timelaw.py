@@ -65,7 +65,8 @@ _KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
 _SWING_ROUNDS = 3
 _PLATEAU_ROUNDS = 8
 _REACH_ROUNDS = 2
-_JERK_SHARE = 0.97  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
+_WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): the fastest is kept
+_JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
 
 
@@ -301,15 +302,37 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     cap = np.minimum(np.min(y_vel.reshape(3, m), axis=0), _RHO * np.min(y_acc.reshape(3, m), axis=0))
     stops = np.searchsorted(u, stop_u)
-    window = float(np.max((lim.amax / lim.jmax)[list(lim.cols)])) if jerk else 0.0
-
-    budget_of = _Budgets(geo, m, lim, window)
-    y, budget = _profile(cap, stops, ds, budget_of)
-    if jerk:
-        y = _filterable(y, cap, budget_of, stops, ds, window, _stop_waits(len(u), stops, stop_dwell, window,
-                                                                          lim.period))
+    if not jerk:
+        y, _ = _profile(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
+        window = 0.0
+    else:
+        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim)
     accel = np.diff(y) / (2.0 * ds)
     return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
+
+
+def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray, geo: _Geometry,
+                  m: int, lim: PathLimits) -> tuple[np.ndarray, float]:
+    """The jerk-limited profile and its filter length Tj, the faster of a few.
+
+    The filter allows an acceleration jump of jmax Tj within Tj, so Tj = amax / jmax lets the tangential
+    acceleration reach amax on straight stretches. Where curvature terms hold the tangential budget far
+    below that anyway (dense, tightly curved code), a shorter window costs nothing in acceleration and
+    shrinks every reach (caps are taken over the stretch the window spans) and every rest at a stop.
+    Each candidate is planned in full; the one with the shortest motion (rests included) is kept."""
+    base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
+    best: tuple[float, np.ndarray, float] | None = None
+    for share in _WINDOWS:
+        window = share * base
+        budget_of = _Budgets(geo, m, lim, window)
+        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
+        y, _ = _profile(cap, stops, ds, budget_of)
+        y = _filterable(y, cap, budget_of, stops, ds, window, rest)
+        total = float(_node_times(y, ds)[-1] + rest.sum()) + window
+        if best is None or total < best[0]:
+            best = (total, y, window)
+    assert best is not None
+    return best[1], best[2]
 
 
 def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
@@ -511,7 +534,7 @@ def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float,
     inner = np.zeros(n, dtype=bool)
     inner[stop_node] = True
     inner[[0, -1]] = False
-    wait[inner] = np.maximum(wait[inner], period) + window
+    wait[inner] = wait[inner] + window if window > 0 else np.maximum(wait[inner], period)
     return wait
 
 
