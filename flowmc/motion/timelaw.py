@@ -87,9 +87,10 @@ class TimeLaw:
     period: float  # the sampling period T
 
     def u_at(self, s: np.ndarray, curve: PlannedCurve) -> np.ndarray:
-        """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends),
-        then two Newton steps on the arc length from the interval's start (3-point Gauss-Legendre, exact to
-        rounding over intervals this short)."""
+        """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends;
+        exact on lines and arcs, where ds/du is constant), then, on the other intervals only, two Newton steps
+        on the arc length from the interval's start (3-point Gauss-Legendre, exact to rounding over intervals
+        this short)."""
         s = np.clip(np.asarray(s, dtype=float).reshape(-1), self.s[0], self.s[-1])
         if not len(s):
             return s.copy()
@@ -101,6 +102,15 @@ class TimeLaw:
         h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
         u = np.clip(h00 * u0 + h10 * m0 + h01 * u1 + h11 * m1, u0, u1)
         index = curve.interval_at(0.5 * (u0 + u1))
+        # lines and arcs have a constant ds/du, where the Hermite cubic is the exact (linear) map already
+        curved = np.flatnonzero(~curve.constant_speed()[index])
+        if len(curved):
+            u[curved] = self._newton(s[curved], u[curved], k[curved], index[curved], curve)
+        return u
+
+    def _newton(self, s: np.ndarray, u: np.ndarray, k: np.ndarray, index: np.ndarray,
+                curve: PlannedCurve) -> np.ndarray:
+        u0, u1 = self.u[k], self.u[k + 1]
         for _ in range(2):
             half = 0.5 * (u - u0)
             nodes = (0.5 * (u + u0))[:, None] + half[:, None] * _GL3_X[None, :]
@@ -216,33 +226,46 @@ class _Budgets:
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
-        def worst(a):  # (3m, 3) -> (m, 3): the largest over the interval's three points, per axis
-            return a.reshape(3, m, 3).max(axis=0)
+        def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,)
+            w = a.reshape(3, m, 3).max(axis=0)
+            return [np.ascontiguousarray(w[:, i]) for i in range(3)]
 
-        t = worst(g.t)
-        moving = t > 0  # never on a column the machine lacks (its limits are inf)
-        inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
-        self.alpha = np.where(moving, np.where(moving, lim.amax[None, :], 1.0) * inv_t, np.inf)
-        self.beta_up = worst(np.maximum(g.kt, 0.0)) * inv_t
-        self.beta_down = worst(np.maximum(-g.kt, 0.0)) * inv_t
+        t, k, p3 = worst(g.t), worst(g.k), worst(g.p3)
+        kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
         self.window = window
-        if window > 0:
-            self.jmax = _JERK_SHARE * lim.jmax[None, :]
-            self.t_win, self.k3, self.p3 = t / window, 3.0 * worst(g.k), worst(g.p3)
+        # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
+        self.axes = []
+        for i in range(3):
+            if not (t[i].any() or k[i].any() or p3[i].any()):
+                continue
+            moving = t[i] > 0
+            inv_t = np.where(moving, 1.0 / np.where(moving, t[i], 1.0), 0.0)
+            row = {"alpha": np.where(moving, lim.amax[i] * inv_t, np.inf),
+                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t}
+            if window > 0:
+                row.update(jmax=_JERK_SHARE * lim.jmax[i], t_win=t[i] / window, k3=3.0 * k[i], p3=p3[i])
+            self.axes.append(row)
 
     def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
         up to twice the budget within Tj), elsewhere for jumps of up to the budget."""
-        y = level[:, None]
+        y = level
+        up = np.full(len(y), np.inf)
+        down = np.full(len(y), np.inf)
         with np.errstate(invalid="ignore", divide="ignore"):
-            up = np.min(self.alpha - self.beta_up * y, axis=1)
-            down = np.min(self.alpha - self.beta_down * y, axis=1)
             if self.window > 0:
                 root = np.sqrt(y)
-                t_win = self.t_win if swing is None else self.t_win * (1.0 + swing)[:, None]
-                coeff = t_win + self.k3 * root
-                jerk = np.min(np.where(coeff > 0, (self.jmax - self.p3 * (y * root)) / coeff, np.inf), axis=1)
-                up, down = np.minimum(up, jerk), np.minimum(down, jerk)
+                y_root = y * root
+                widen = None if swing is None else 1.0 + swing
+            for row in self.axes:
+                np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
+                np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                if self.window > 0:
+                    t_win = row["t_win"] if widen is None else row["t_win"] * widen
+                    coeff = t_win + row["k3"] * root
+                    jerk = np.where(coeff > 0, (row["jmax"] - row["p3"] * y_root) / coeff, np.inf)
+                    np.minimum(up, jerk, out=up)
+                    np.minimum(down, jerk, out=down)
         clean = [np.maximum(np.where(np.isfinite(b), b, 1e12), 1e-9) for b in (up, down)]
         return clean[0], clean[1]
 
