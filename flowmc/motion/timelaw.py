@@ -377,7 +377,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     swing = np.zeros(m, dtype=bool)
     fastest = y
     for _ in range(_SWING_ROUNDS):
-        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window)
+        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
         node_cap[stops] = 0.0
@@ -412,16 +412,28 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
 
 
 def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.ndarray, stops: np.ndarray,
-                  ds: np.ndarray, window: float):
-    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval)."""
+                  ds: np.ndarray, window: float, rest: np.ndarray):
+    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval).
+
+    The reach of interval k: every interval the filtered motion is on while its window holds some of the
+    time spent on k. The window holds it from the time the motion leaves node k until Tj after it reaches
+    node k + 1, and the filtered position only grows, so the filtered motion is between s_f(leave k) and
+    s_f(reach k+1, plus Tj): about half a window's travel each side, since s_f lags by about Tj / 2. A faster
+    profile (faster at every s) gives a wider reach: the window's average lies further back and ahead."""
     m = len(ds)
+    s_nodes = np.concatenate([[0.0], np.cumsum(ds)])
+    no_owner = np.full(m + 1, -1)
 
     def reach_of(faster: np.ndarray):
-        t = _node_times(faster, ds)
-        # an interval's reach: every interval passed within Tj of any time spent on it
-        lo = np.clip(np.searchsorted(t, t[:-1] - window, side="left") - 1, 0, m - 1)
-        hi = np.maximum(np.clip(np.searchsorted(t, t[1:] + window, side="right") - 1, 0, m - 1), lo)
-        return lo, hi
+        ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, no_owner)
+        depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
+        arrive = ph.start[0::2]
+        times = np.concatenate([depart[:-1], arrive[1:] + window])
+        filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
+        lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
+        hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
+        k = np.arange(m)
+        return np.minimum(lo, k), np.maximum(hi, k)
 
     def planned(faster: np.ndarray, limit: np.ndarray | None):
         lo, hi = reach_of(faster)
@@ -562,19 +574,23 @@ def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float,
 
 
 def _phases(law: TimeLaw) -> _Phases:
-    s, y = law.s, law.y
+    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.window, law.period)
+    owner = np.full(len(law.s), -1)
+    owner[law.stop_node] = law.stop_segment
+    return _phases_of(law.s, law.y, law.accel, wait, owner)
+
+
+def _phases_of(s: np.ndarray, y: np.ndarray, accel: np.ndarray, wait: np.ndarray, owner: np.ndarray) -> _Phases:
+    """Phases of a profile y at nodes s, waiting ``wait`` at each node (dwell segment ``owner`` or -1)."""
     v = np.sqrt(np.maximum(y, 0.0))
     dt = 2.0 * np.diff(s) / np.maximum(v[:-1] + v[1:], 1e-300)
-    wait = _stop_waits(len(s), law.stop_node, law.stop_wait, law.window, law.period)
-    owner = np.full(len(s), -1)
-    owner[law.stop_node] = law.stop_segment
     n = len(s)
     dur, s0, v0, acc, own = np.empty(2 * n - 1), np.empty(2 * n - 1), np.zeros(2 * n - 1), np.zeros(2 * n - 1), \
         np.full(2 * n - 1, -1)
     dur[0::2], dur[1::2] = wait, dt
     s0[0::2], s0[1::2] = s, s[:-1]
     v0[1::2] = v[:-1]
-    acc[1::2] = law.accel
+    acc[1::2] = accel
     own[0::2] = owner
     start = np.concatenate([[0.0], np.cumsum(dur)[:-1]])
     return _Phases(start, dur, s0, v0, acc, own)
