@@ -66,6 +66,7 @@ _SWING_ROUNDS = 3
 _PLATEAU_ROUNDS = 8
 _REACH_ROUNDS = 2
 _WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): the fastest is kept
+_SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over half the budget less than this
 _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
 
@@ -336,13 +337,14 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
 
 def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray, geo: _Geometry,
                   m: int, lim: PathLimits) -> tuple[np.ndarray, float]:
-    """The jerk-limited profile and its filter length Tj, the faster of a few.
+    """The jerk-limited profile and its filter length Tj.
 
     The filter allows an acceleration jump of jmax Tj within Tj, so Tj = amax / jmax lets the tangential
     acceleration reach amax on straight stretches. Where curvature terms hold the tangential budget far
-    below that anyway (dense, tightly curved code), a shorter window costs nothing in acceleration and
-    shrinks every reach (caps are taken over the stretch the window spans) and every rest at a stop.
-    Each candidate is planned in full; the one with the shortest motion (rests included) is kept."""
+    below that anyway (dense, tightly curved code: the motion spends less than _SHORT_WINDOW_USE of its
+    time above half of it), a window half as long costs little acceleration and halves every reach (caps
+    are taken over the stretch the window spans) and every rest at a stop; both are planned then, and the
+    one with the shorter motion (rests included) is kept."""
     base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
     best: tuple[float, np.ndarray, float] | None = None
     for share in _WINDOWS:
@@ -351,9 +353,13 @@ def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds
         rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
         y, _ = _profile(cap, stops, ds, budget_of)
         y = _filterable(y, cap, budget_of, stops, ds, window, rest)
-        total = float(_node_times(y, ds)[-1] + rest.sum()) + window
+        dt = np.diff(_node_times(y, ds))
+        total = float(dt.sum() + rest.sum()) + window
         if best is None or total < best[0]:
             best = (total, y, window)
+        full = _JERK_SHARE * float(np.min(lim.jmax[list(lim.cols)])) * window  # the straight-line budget
+        if float(dt[np.abs(np.diff(y) / (2.0 * ds)) > 0.5 * full].sum()) >= _SHORT_WINDOW_USE * dt.sum():
+            break
     assert best is not None
     return best[1], best[2]
 
