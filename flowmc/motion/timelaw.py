@@ -138,22 +138,30 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarr
         k = np.repeat(sub, reps)
         parts.append(curve.u0[k] + width[k] * _ranks(reps) / n[k])
     u = np.unique(np.concatenate(parts))
-    # where the curve turns or its curvature changes quickly, halve the intervals until it does not
+    # where the curve turns or its curvature changes quickly, halve the intervals until it does not; lines
+    # never need it, and an interval that passed keeps passing, so each round checks only the new halves
+    check = ~line[curve.interval_at(0.5 * (u[:-1] + u[1:]))]
     for _ in range(_REFINE):
-        mid = 0.5 * (u[:-1] + u[1:])
+        at = np.flatnonzero(check)
+        if not len(at):
+            break
+        a, b = u[at], u[at + 1]
+        mid = 0.5 * (a + b)
         k = curve.interval_at(mid)
-        _, d1, d2 = curve.evaluate(np.r_[u[:-1], u[1:]], 2, index=np.r_[k, k])
+        _, d1, d2 = curve.evaluate(np.r_[a, b], 2, index=np.r_[k, k])
         sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
         tan = d1 / sp[:, None]
         kap = np.linalg.norm(np.cross(d1, d2), axis=1) / sp**3
         m = len(k)
         turn = np.linalg.norm(tan[m:] - tan[:m], axis=1)
-        width = u[1:] - u[:-1]
         change = np.abs(kap[m:] - kap[:m]) > _KAPPA_CHANGE * np.maximum(kap[m:], kap[:m])
-        split = ((turn > _TURN_STEP) | change) & (width > 1e-4)
+        split = ((turn > _TURN_STEP) | change) & (b - a > 1e-4)
         if not split.any():
             break
-        u = np.unique(np.r_[u, mid[split]])
+        new = mid[split]
+        u = np.unique(np.r_[u, new])
+        fresh = np.isin(u, new)
+        check = fresh[:-1] | fresh[1:]
     is_stop = np.isin(u, stop_u)
     both = np.flatnonzero(is_stop[:-1] & is_stop[1:])
     if len(both):
@@ -322,7 +330,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:]])
     geo, sp = _geometry(curve, pts, np.tile(k_iv, 3), lim.cols)
     speed_u = np.r_[sp[:m], sp[-1]]
-    feed = feed_of_u(np.tile(0.5 * (u[:-1] + u[1:]), 3))
+    feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     cap = np.minimum(np.min(y_vel.reshape(3, m), axis=0), _RHO * np.min(y_acc.reshape(3, m), axis=0))
     stops = np.searchsorted(u, stop_u)
