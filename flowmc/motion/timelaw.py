@@ -30,9 +30,11 @@ for online trajectory planning with time- and frequency-domain specifications", 
 Practice 20, 2012; applied to the arc length, so the tool stays exactly on the curve). Then
 d3s_f/dt3 = (a(t) - a(t - Tj)) / Tj, at most 2 A / Tj. The curvature terms are capped ahead of the
 filter: the speed so that |K_i| v^2 and |P3_i| v^3 leave room, and A so that 3 |K_i| v A fits too;
-because the filter averages over a window, every cap is taken as the smallest within the stretch the
-window can span there (from a profile at least as fast), and the tool rests for Tj wherever the
-profile stops, so it comes to rest exactly there. The curve must be curvature-continuous for this
+because the filter averages over a window, every cap is taken as the smallest over the filtered positions
+whose window holds that stretch (about half a window's travel each side, from a profile at least as
+fast), and the tool rests for Tj wherever the profile stops, so it comes to rest exactly there. Where the
+curvature terms keep the acceleration well below amax anyway, a window half as long is planned too and
+kept if faster. The curve must be curvature-continuous for this
 (flowmc.motion.smoothing's continuity=2). Every claim is checked from sampled setpoints in the tests.
 """
 
