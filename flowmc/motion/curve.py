@@ -139,24 +139,19 @@ class CurveBuilder:
         self.chunks: list[dict] = []
 
     def polys(self, pu_breaks, coef, widths=None) -> None:
-        """Consecutive polynomial intervals over programmed stretches ``pu_breaks`` (n + 1,), coefficients
-        (n, 4, 3) in powers of the curve parameter from each interval's start; ``widths``: their lengths
-        in curve parameter (default: the programmed stretches' lengths)."""
+        """Polynomial intervals, coefficients (n, 4, 3) in powers of the curve parameter from each interval's
+        start, over programmed stretches ``pu_breaks``: (n + 1,) for consecutive stretches, or (n, 2) rows
+        [start, end] for stretches apart; ``widths``: their lengths in curve parameter (default: the
+        programmed stretches' lengths)."""
         pu_breaks = np.asarray(pu_breaks, dtype=float)
+        pu0, pu1 = (pu_breaks[:, 0], pu_breaks[:, 1]) if pu_breaks.ndim == 2 else (pu_breaks[:-1], pu_breaks[1:])
         coef = np.asarray(coef, dtype=float).reshape(-1, 4, 3)
         n = len(coef)
-        width = np.diff(pu_breaks) if widths is None else np.asarray(widths, dtype=float)
-        chunk = {"pu0": pu_breaks[:-1], "pu1": pu_breaks[1:], "width": width,
-                 "kind": np.full(n, POLY, dtype=np.int8), "coef": coef}
+        width = pu1 - pu0 if widths is None else np.asarray(widths, dtype=float)
+        chunk = {"pu0": pu0, "pu1": pu1, "width": width, "kind": np.full(n, POLY, dtype=np.int8), "coef": coef}
         chunk.update({k: np.zeros((n, 3)) for k in self._VEC})
         chunk.update({k: np.zeros(n) for k in self._SCALAR})
         self.chunks.append(chunk)
-
-    def line(self, pu0: float, pu1: float, start, direction) -> None:
-        """A straight piece from ``start`` along unit ``direction`` over the programmed stretch [pu0, pu1]."""
-        coef = np.zeros((1, 4, 3))
-        coef[0, 0], coef[0, 1] = start, direction
-        self.polys([pu0, pu1], coef)
 
     def arcs(self, pu0, pu1, width, centre, e1, e2, w, radius, phi0, dphi, rise) -> None:
         """Arc intervals standing for programmed stretches [pu0, pu1], ``width`` mm of curve parameter each

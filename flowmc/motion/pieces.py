@@ -219,8 +219,16 @@ def _blends(cols: PathColumns, is_line, u, lengths, feeds, tol: float | None, li
     return _Blends(trim, radius, center, normal, u_in, u_out, mid, alpha, v_lim, a_lim, j_lim)
 
 
-def _feeds(path: Path, cols: PathColumns) -> np.ndarray:
-    """Each segment's path-speed cap (inf for dwells); PlanningError naming the first bad feed."""
+def checked_feeds(path: Path) -> np.ndarray:
+    """Each segment's path-speed cap (inf for dwells), from the path's columns; PlanningError for an empty
+    path, a gap (naming the segment that does not start where the one before ends) or the first bad feed."""
+    if not len(path):
+        raise PlanningError("the path has no segments", where="path")
+    cols = path.columns
+    for i in path.gaps(1e-6):
+        raise PlanningError(
+            f"starts at {np.round(cols.start[i], 6).tolist()} but the segment before ends at "
+            f"{np.round(cols.end[i - 1], 6).tolist()}", where=describe_segment(i, path.segment_names()))
     feeds = np.where(cols.kind == DWELL_ROW, math.inf, cols.feed)
     bad = np.flatnonzero(~(feeds > 0) | np.isnan(feeds) | (np.isinf(feeds) & (cols.kind != DWELL_ROW)))
     if len(bad):
@@ -238,20 +246,14 @@ def build_pieces(path: Path, machine: Machine, blend_tol: float | None = None) -
     Raises PlanningError naming the segment for gaps, bad feeds, or motion on axes the machine lacks.
     """
     lim = PathLimits.of(machine)
-    if not len(path):
-        raise PlanningError("the path has no segments", where="path")
+    feeds = checked_feeds(path)
     cols = path.columns
     _check_axes(path, list(lim.cols), machine)
-    for i in path.gaps(1e-6):
-        raise PlanningError(
-            f"starts at {np.round(cols.start[i], 6).tolist()} but the segment before ends at "
-            f"{np.round(cols.end[i - 1], 6).tolist()}", where=describe_segment(i, path.segment_names()))
     n = len(cols)
     lengths = np.asarray(cols.lengths, dtype=float)
     kind = cols.kind
     dwell = kind == DWELL_ROW
     is_line = (kind == LINE_ROW) & (lengths > _EPS_LEN)
-    feeds = _feeds(path, cols)
     u = np.zeros((n, 3))
     u[is_line] = (cols.end[is_line] - cols.start[is_line]) / lengths[is_line, None]
     line_v, line_a, line_j = lim.along(u)

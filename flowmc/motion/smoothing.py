@@ -53,9 +53,10 @@ from scipy.ndimage import uniform_filter1d
 
 from flowmc.errors import PlanningError
 from flowmc.motion.curve import POLY, CurveBuilder, PlannedCurve
-from flowmc.motion.limits import PathLimits, segment_feed
-from flowmc.motion.path import PLANES, Arc, Dwell, EllipseArc, Line, NurbsCurve, Path, describe_segment
-from flowmc.motion.pieces import REVERSAL, corner_angle
+from flowmc.motion.limits import PathLimits
+from flowmc.motion.path import Path
+from flowmc.motion.path_columns import CURVE, DWELL, LINE, PathColumns
+from flowmc.motion.pieces import REVERSAL, checked_feeds, corner_angle
 from flowmc.motion.ranges import window_max
 
 __all__ = ["Smoothed", "smooth_path", "raw_curve"]
@@ -134,52 +135,59 @@ def _unit_and_curvature(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def raw_curve(path: Path) -> tuple[PlannedCurve, _Elements]:
-    """The programmed path as a PlannedCurve (lines, arcs, tabulated curves as cubic splines), unsmoothed."""
-    segs = path.segments
-    lengths = np.array([0.0 if isinstance(s, Dwell) else s.length for s in segs])
+    """The programmed path as a PlannedCurve (lines, arcs, tabulated curves as cubic splines), unsmoothed.
+
+    Read from the path's columns: lines and arcs all at once, tabulated curves one by one."""
+    cols = path.columns
+    lengths = np.array(cols.lengths, dtype=float)
     lengths[lengths <= _EPS_LEN] = 0.0
     seg_u0 = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
-    b = CurveBuilder()
-    first_row, rows = [], 0
     moving = np.flatnonzero(lengths > 0)
-    for i in moving:
-        seg, u0, length = segs[i], float(seg_u0[i]), float(lengths[i])
-        first_row.append(rows)
-        if isinstance(seg, Line):
-            b.line(u0, u0 + length, seg.start, (seg.end - seg.start) / length)
-            rows += 1
-        elif isinstance(seg, Arc):
-            iu, iv = PLANES[seg.normal_axis][1]
-            eye = np.eye(3)
-            b.arcs(u0, u0 + length, length, seg.center, eye[iu], eye[iv], eye[seg.normal_axis], seg.radius,
-                   seg.start_angle, seg.sweep / length, seg.rise / length)
-            rows += 1
-        else:
-            assert isinstance(seg, (EllipseArc, NurbsCurve)), type(seg).__name__
-            n = int(max(4, math.ceil(length / min(_CURVE_STEP, 0.25 * seg.min_radius))))
-            s = np.linspace(0.0, length, n + 1)
-            tan = seg.tangent_at(np.array([0.0, length]))
-            cs = CubicSpline(s, seg.point_at(s), axis=0, bc_type=((1, tan[0]), (1, tan[1])))
-            b.polys(u0 + s, np.transpose(cs.c[::-1], (1, 0, 2)))
-            rows += n
     if not len(moving):
         raise PlanningError("the path does not move (every segment has zero length)", where="path")
+    kind = cols.kind[moving]
+    rows_of = np.ones(len(moving), dtype=int)  # curve intervals each moving segment becomes
+    b = CurveBuilder()
+    lines = moving[kind == LINE]
+    if len(lines):
+        coef = np.zeros((len(lines), 4, 3))
+        coef[:, 0] = cols.start[lines]
+        coef[:, 1] = (cols.end[lines] - cols.start[lines]) / lengths[lines, None]
+        b.polys(np.c_[seg_u0[lines], seg_u0[lines] + lengths[lines]], coef)
+    geo = cols.arcs
+    arc = np.flatnonzero(lengths[geo.rows] > 0)
+    if len(arc):
+        rows, length = geo.rows[arc], lengths[geo.rows[arc]]
+        eye = np.eye(3)
+        b.arcs(seg_u0[rows], seg_u0[rows] + length, length, cols.center[rows], eye[geo.iu[arc]], eye[geo.iv[arc]],
+               eye[geo.normal[arc]], geo.r0[arc], geo.angle0[arc], geo.sweep[arc] / length, geo.rise[arc] / length)
+    for k in moving[kind == CURVE]:  # ellipses and NURBS, tabulated as cubic splines
+        seg, u0, length = cols.curves[k], float(seg_u0[k]), float(lengths[k])
+        n = int(max(4, math.ceil(length / min(_CURVE_STEP, 0.25 * seg.min_radius))))
+        s = np.linspace(0.0, length, n + 1)
+        tan = seg.tangent_at(np.array([0.0, length]))
+        cs = CubicSpline(s, seg.point_at(s), axis=0, bc_type=((1, tan[0]), (1, tan[1])))
+        b.polys(u0 + s, np.transpose(cs.c[::-1], (1, 0, 2)))
+        rows_of[np.searchsorted(moving, k)] = n
     curve = b.build(seg_u0)
-    first = np.asarray(first_row)
+    first = np.cumsum(rows_of) - rows_of
     last = np.r_[first[1:] - 1, len(curve) - 1]
     el_u0, el_u1 = seg_u0[moving], seg_u0[moving] + lengths[moving]
     d_start = curve.evaluate(el_u0, 2, index=first)
     d_end = curve.evaluate(el_u1, 2, index=last)
     t0, k0 = _unit_and_curvature(d_start[1], d_start[2])
     t1, k1 = _unit_and_curvature(d_end[1], d_end[2])
-    is_line = np.array([isinstance(segs[i], Line) for i in moving])
-    return curve, _Elements(moving, el_u0, el_u1, is_line, t0, t1, k0, k1)
+    return curve, _Elements(moving, el_u0, el_u1, kind == LINE, t0, t1, k0, k1)
 
 
 # ---------------------------------------------------------------- zones and runs
 
-def _stop_between(a, b) -> bool:
-    return a.tool_down != b.tool_down or a.spindle != b.spindle
+def _stops_between(cols: PathColumns, seg: np.ndarray) -> np.ndarray:
+    """Whether the tool must rest between consecutive moving segments ``seg``: a dwell between them, or the
+    tool or spindle changing on the way."""
+    change = np.r_[False, (cols.tool_down[1:] != cols.tool_down[:-1]) | (cols.spindle[1:] != cols.spindle[:-1])]
+    marks = np.cumsum(change | (cols.kind == DWELL))
+    return marks[seg[1:]] > marks[seg[:-1]]
 
 
 def _zone_wants(alpha, dkappa, tol: float, r_cap: float, g2: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -585,9 +593,7 @@ def _copy_outside(raw: PlannedCurve, b: CurveBuilder, cut_a: np.ndarray, cut_b: 
     poly = raw.kind[k] == POLY
     if poly.any():
         kk = k[poly]
-        coef = _shift_poly(raw.coef[kk], du[poly])
-        for i in range(len(kk)):  # one chunk each: their breakpoints need not be contiguous
-            b.polys([lo[poly][i], hi[poly][i]], coef[i:i + 1])
+        b.polys(np.c_[lo[poly], hi[poly]], _shift_poly(raw.coef[kk], du[poly]))
     arc = ~poly
     if arc.any():
         kk = k[arc]
@@ -605,15 +611,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     """
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
-    segs = path.segments
-    if not segs:
-        raise PlanningError("the path has no segments", where="path")
-    for i in path.gaps(1e-6):
-        raise PlanningError(
-            f"starts at {np.round(segs[i].start, 6).tolist()} but the segment before ends at "
-            f"{np.round(segs[i - 1].end, 6).tolist()}", where=describe_segment(i, segs[i].source))
-    seg_feed = np.array([math.inf if isinstance(s, Dwell) else segment_feed(s, describe_segment(i, s.source))
-                         for i, s in enumerate(segs)])
+    seg_feed = checked_feeds(path)
     raw, el = raw_curve(path)
     g2 = continuity >= 2
     period = limits.period
@@ -627,8 +625,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
 
     # junctions between consecutive elements
     nj = len(el.seg) - 1
-    gap_stop = np.array([any(isinstance(segs[i], Dwell) or _stop_between(segs[i - 1], segs[i])
-                             for i in range(a + 1, b + 1)) for a, b in zip(el.seg[:-1], el.seg[1:])], dtype=bool)
+    gap_stop = _stops_between(path.columns, el.seg)
     alpha = corner_angle(el.t1[:-1], el.t0[1:]) if nj > 0 else np.zeros(0)
     dkappa = np.linalg.norm(el.k0[1:] - el.k1[:-1], axis=1) if nj > 0 else np.zeros(0)
     stop = gap_stop | (alpha >= REVERSAL)
@@ -699,15 +696,13 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     curve = b.build(raw.seg_u0)
 
     # stops: start, end, stop junctions, unsmoothed corners; dwells wait where they are
-    lengths = np.array([0.0 if isinstance(s, Dwell) else s.length for s in segs])
-    lengths[lengths <= _EPS_LEN] = 0.0
-    seg_u0 = raw.seg_u0
     stop_u = [np.array([0.0, raw.length]), el.u1[:-1][stop], el.u1[:-1][~need & ~stop & (alpha > 0)
                                                                            & _unsmoothable(alpha, period, a_min, v_big)]]
     stop_u += stop_extra
-    dwell_idx = np.array([i for i, s in enumerate(segs) if isinstance(s, Dwell)], dtype=int)
-    su = curve.curve_u(np.concatenate(stop_u + [seg_u0[dwell_idx]]))
-    sd = np.concatenate([np.zeros(len(su) - len(dwell_idx)), [segs[i].seconds for i in dwell_idx]])
+    cols = path.columns
+    dwell_idx = np.flatnonzero(cols.kind == DWELL)
+    su = curve.curve_u(np.concatenate(stop_u + [raw.seg_u0[dwell_idx]]))
+    sd = np.concatenate([np.zeros(len(su) - len(dwell_idx)), cols.seconds[dwell_idx]])
     ss = np.concatenate([np.full(len(su) - len(dwell_idx), -1), dwell_idx])
     order = np.lexsort((ss, su))
     return Smoothed(curve, su[order], sd[order], ss[order], seg_feed, len(blends), len(fits) - failed, failed,

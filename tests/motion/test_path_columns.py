@@ -14,6 +14,7 @@ from flowmc.motion.lookahead import plan_lookahead, plan_stop_and_go
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Line, Path
 from flowmc.motion.pieces import build_pieces
+from flowmc.motion.planner import plan_smooth
 from flowmc.motion.signals import path_signals
 
 PROGRAM = """(every kind of row the reader makes)
@@ -48,17 +49,27 @@ def both() -> tuple[Path, Path]:
 
 def test_the_reader_hands_out_columns_and_the_planner_makes_no_segment_objects():
     path = parse_gcode(PROGRAM, "part.ngc")
-    # the segment-by-segment planners read columns only; the blend rule's smoothing (flowmc.motion.smoothing)
-    # still walks segment objects, which the last assertion of the test below pins down
+    # every planner reads columns only: the segment-by-segment ones and the blend rule's smoothing
+    # (flowmc.motion.smoothing), whose curve takes lines and arcs from the columns and curves from ``curves``
     plan = plan_lookahead(path, Machine(), rule="junction_deviation")
     plan_stop_and_go(path, Machine())
+    smooth = plan_lookahead(path, Machine())
     path.summary()
     assert "segments" not in path.__dict__  # no Segment object was made for all of that
-    assert len(plan.trajectory.positions) > 100
+    assert len(plan.trajectory.positions) > 100 and len(smooth.trajectory.positions) > 100
     assert path[5].kind == "arc" and "segments" not in path.__dict__
     assert path.kind_counts() == {"arc": 5, "dwell": 3, "line": 6, "nurbs": 1}
-    plan_lookahead(path, Machine())  # the default blend rule smooths, from the segment objects
-    assert "segments" in path.__dict__
+
+
+def test_the_smoothed_plan_is_the_same_from_columns_and_from_segment_objects(both):
+    cols, objs = both
+    machine = Machine()
+    a, b = plan_smooth(cols, machine), plan_smooth(objs, machine)
+    np.testing.assert_allclose(a.trajectory.positions, b.trajectory.positions, atol=1e-9)
+    np.testing.assert_array_equal(a.trajectory.segment, b.trajectory.segment)
+    np.testing.assert_array_equal(a.smoothed.stop_u, b.smoothed.stop_u)
+    np.testing.assert_array_equal(a.smoothed.stop_dwell, b.smoothed.stop_dwell)
+    assert a.smoothed.stop_dwell.max() == 0.5  # G4 P0.5 waits where it is
 
 
 def test_a_column_path_is_the_same_path_as_its_segment_objects(both):
