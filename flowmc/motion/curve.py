@@ -74,6 +74,10 @@ class PlannedCurve:
         k = np.clip(np.searchsorted(self.pu0, pu, side="right") - 1, 0, len(self.pu0) - 1)
         return np.minimum(self.u0[k] + (pu - self.pu0[k]) / self.prate[k], self.u1[k])
 
+    def constant_speed(self) -> np.ndarray:
+        """Per interval: |dp/du| is constant on it (a line or an arc), so arc length is linear in u there."""
+        return (self.kind == ARC) | np.all(self.coef[:, 2:] == 0.0, axis=(1, 2))
+
     def segment_at(self, u: np.ndarray) -> np.ndarray:
         """Index of the programmed segment at each curve parameter u (the last one starting at or before it;
         a segment of zero length, a dwell, owns no u)."""

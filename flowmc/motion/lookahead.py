@@ -7,7 +7,8 @@ limits, and a trapezoid or S-curve profile joins consecutive junctions. The rule
 - ``arm_weighted``: v <= w*a*T / (2 sin(alpha/2)), w from the paper's angle table, so the velocity
   change at a corner within one period stays within w*a.
 - ``junction_deviation`` (GRBL): v^2 <= a*delta*cos(alpha/2) / (1 - cos(alpha/2)), the speed of a
-  circle of deviation delta tangent to both moves; the sampled path still turns sharply.
+  circle of deviation delta tangent to both moves; the sampled path still turns sharply (with the
+  trapezoid the turn's velocity change may exceed a*T; S-curves cap it at amax_i*T per axis).
 - ``blend``: handed to flowmc.motion.planner: corners and runs of short segments smoothed within the
   tolerance (G64 P Q style, across many segments), then the fastest per-axis time law; jerk-limited
   per axis with ``profile="scurve"``.
@@ -161,8 +162,11 @@ def _piece_caps(pieces: Pieces, rho: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _junctions(pieces: Pieces, cap: np.ndarray, rule: str, tol: float, period: float,
-               amax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Speed limit and corner flag at each junction between consecutive pieces (len(pieces) - 1)."""
+               amax: np.ndarray, sampled_turn: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Speed limit and corner flag at each junction between consecutive pieces (len(pieces) - 1).
+
+    ``sampled_turn`` (S-curves, which promise bounded acceleration): every rule's speed is also capped so
+    that the turn, made within one period, changes each axis's velocity by at most amax_i T."""
     t_in, t_out = pieces.t_end[:-1], pieces.t_start[1:]
     alpha = corner_angle(t_in, t_out)
     du = t_out - t_in
@@ -173,6 +177,9 @@ def _junctions(pieces: Pieces, cap: np.ndarray, rule: str, tol: float, period: f
     a_j = np.where(np.isfinite(a_j), a_j, np.min(amax))
     if rule == "junction_deviation":
         v = junction_deviation_speed(alpha, a_j, tol)
+        if sampled_turn:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                v = np.minimum(v, np.where(alpha > 0, a_j * period / (2.0 * np.sin(0.5 * alpha)), np.inf))
     else:  # arm_weighted, and blend mode's corners that could not be rounded (arcs, curves)
         v = arm_junction_speed(alpha, a_j, period)
         if rule == "blend":
@@ -515,7 +522,7 @@ def plan_lookahead(path: Path, machine: Machine, rule: Literal["arm_weighted", "
     else:
         cap, accel = _piece_caps(pieces, _RHO_FIXED)
         kappa = np.zeros(len(pieces))
-        jv, jcorner = _junctions(pieces, cap, rule, tolerance, period, amax)
+        jv, jcorner = _junctions(pieces, cap, rule, tolerance, period, amax, sampled_turn=True)
         groups = _group_scurve(pieces, cap, jv, jcorner)
     runs = _make_runs(pieces, groups, cap, accel, kappa, jv, jcorner)
     v = _passes(runs, profile, period)

@@ -1,4 +1,8 @@
-"""Range minimum and maximum over many windows of one array at once (a sparse table: O(n log n), vectorised)."""
+"""Range minimum and maximum over many windows of one array at once (a sparse table: O(n log w), vectorised).
+
+Only the levels the widest window needs are built (w its width), and all windows are answered by one
+gather from the stacked levels, so many calls with short windows over a long array stay cheap.
+"""
 
 from __future__ import annotations
 
@@ -11,19 +15,17 @@ def window_min(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
     """min(values[lo_k : hi_k + 1]) for every k; 0 <= lo_k <= hi_k < len(values)."""
     values = np.asarray(values, dtype=float)
     lo, hi = np.asarray(lo, dtype=int), np.asarray(hi, dtype=int)
-    table = [values]
-    span = 1
-    while 2 * span <= len(values):
-        prev = table[-1]
-        table.append(np.minimum(prev[:-span], prev[span:]))
-        span *= 2
+    if not len(lo):
+        return np.empty(0)
     level = np.floor(np.log2(np.maximum(hi - lo + 1, 1))).astype(int)
-    out = np.empty(len(lo))
-    for lv in np.unique(level):
-        sel = np.flatnonzero(level == lv)
-        t = table[lv]
-        out[sel] = np.minimum(t[lo[sel]], t[hi[sel] - (1 << lv) + 1])
-    return out
+    top = int(level.max())
+    table = np.full((top + 1, len(values)), np.inf)
+    table[0] = values
+    span = 1
+    for lv in range(1, top + 1):
+        np.minimum(table[lv - 1, :-span], table[lv - 1, span:], out=table[lv, :-span])
+        span *= 2
+    return np.minimum(table[level, lo], table[level, hi - (1 << level) + 1])
 
 
 def window_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

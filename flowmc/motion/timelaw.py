@@ -30,9 +30,11 @@ for online trajectory planning with time- and frequency-domain specifications", 
 Practice 20, 2012; applied to the arc length, so the tool stays exactly on the curve). Then
 d3s_f/dt3 = (a(t) - a(t - Tj)) / Tj, at most 2 A / Tj. The curvature terms are capped ahead of the
 filter: the speed so that |K_i| v^2 and |P3_i| v^3 leave room, and A so that 3 |K_i| v A fits too;
-because the filter averages over a window, every cap is taken as the smallest within the stretch the
-window can span there (from a profile at least as fast), and the tool rests for Tj wherever the
-profile stops, so it comes to rest exactly there. The curve must be curvature-continuous for this
+because the filter averages over a window, every cap is taken as the smallest over the filtered positions
+whose window holds that stretch (about half a window's travel each side, from a profile at least as
+fast), and the tool rests for Tj wherever the profile stops, so it comes to rest exactly there. Where the
+curvature terms keep the acceleration well below amax anyway, a window half as long is planned too and
+kept if faster. The curve must be curvature-continuous for this
 (flowmc.motion.smoothing's continuity=2). Every claim is checked from sampled setpoints in the tests.
 """
 
@@ -65,7 +67,9 @@ _KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
 _SWING_ROUNDS = 3
 _PLATEAU_ROUNDS = 8
 _REACH_ROUNDS = 2
-_JERK_SHARE = 0.97  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
+_WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): the fastest is kept
+_SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over half the budget less than this
+_JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
 
 
@@ -86,9 +90,10 @@ class TimeLaw:
     period: float  # the sampling period T
 
     def u_at(self, s: np.ndarray, curve: PlannedCurve) -> np.ndarray:
-        """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends),
-        then two Newton steps on the arc length from the interval's start (3-point Gauss-Legendre, exact to
-        rounding over intervals this short)."""
+        """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends;
+        exact on lines and arcs, where ds/du is constant), then, on the other intervals only, two Newton steps
+        on the arc length from the interval's start (3-point Gauss-Legendre, exact to rounding over intervals
+        this short)."""
         s = np.clip(np.asarray(s, dtype=float).reshape(-1), self.s[0], self.s[-1])
         if not len(s):
             return s.copy()
@@ -100,6 +105,15 @@ class TimeLaw:
         h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
         u = np.clip(h00 * u0 + h10 * m0 + h01 * u1 + h11 * m1, u0, u1)
         index = curve.interval_at(0.5 * (u0 + u1))
+        # lines and arcs have a constant ds/du, where the Hermite cubic is the exact (linear) map already
+        curved = np.flatnonzero(~curve.constant_speed()[index])
+        if len(curved):
+            u[curved] = self._newton(s[curved], u[curved], k[curved], index[curved], curve)
+        return u
+
+    def _newton(self, s: np.ndarray, u: np.ndarray, k: np.ndarray, index: np.ndarray,
+                curve: PlannedCurve) -> np.ndarray:
+        u0, u1 = self.u[k], self.u[k + 1]
         for _ in range(2):
             half = 0.5 * (u - u0)
             nodes = (0.5 * (u + u0))[:, None] + half[:, None] * _GL3_X[None, :]
@@ -126,22 +140,30 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarr
         k = np.repeat(sub, reps)
         parts.append(curve.u0[k] + width[k] * _ranks(reps) / n[k])
     u = np.unique(np.concatenate(parts))
-    # where the curve turns or its curvature changes quickly, halve the intervals until it does not
+    # where the curve turns or its curvature changes quickly, halve the intervals until it does not; lines
+    # never need it, and an interval that passed keeps passing, so each round checks only the new halves
+    check = ~line[curve.interval_at(0.5 * (u[:-1] + u[1:]))]
     for _ in range(_REFINE):
-        mid = 0.5 * (u[:-1] + u[1:])
+        at = np.flatnonzero(check)
+        if not len(at):
+            break
+        a, b = u[at], u[at + 1]
+        mid = 0.5 * (a + b)
         k = curve.interval_at(mid)
-        _, d1, d2 = curve.evaluate(np.r_[u[:-1], u[1:]], 2, index=np.r_[k, k])
+        _, d1, d2 = curve.evaluate(np.r_[a, b], 2, index=np.r_[k, k])
         sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
         tan = d1 / sp[:, None]
         kap = np.linalg.norm(np.cross(d1, d2), axis=1) / sp**3
         m = len(k)
         turn = np.linalg.norm(tan[m:] - tan[:m], axis=1)
-        width = u[1:] - u[:-1]
         change = np.abs(kap[m:] - kap[:m]) > _KAPPA_CHANGE * np.maximum(kap[m:], kap[:m])
-        split = ((turn > _TURN_STEP) | change) & (width > 1e-4)
+        split = ((turn > _TURN_STEP) | change) & (b - a > 1e-4)
         if not split.any():
             break
-        u = np.unique(np.r_[u, mid[split]])
+        new = mid[split]
+        u = np.unique(np.r_[u, new])
+        fresh = np.isin(u, new)
+        check = fresh[:-1] | fresh[1:]
     is_stop = np.isin(u, stop_u)
     both = np.flatnonzero(is_stop[:-1] & is_stop[1:])
     if len(both):
@@ -215,33 +237,46 @@ class _Budgets:
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
-        def worst(a):  # (3m, 3) -> (m, 3): the largest over the interval's three points, per axis
-            return a.reshape(3, m, 3).max(axis=0)
+        def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,)
+            w = a.reshape(3, m, 3).max(axis=0)
+            return [np.ascontiguousarray(w[:, i]) for i in range(3)]
 
-        t = worst(g.t)
-        moving = t > 0  # never on a column the machine lacks (its limits are inf)
-        inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
-        self.alpha = np.where(moving, np.where(moving, lim.amax[None, :], 1.0) * inv_t, np.inf)
-        self.beta_up = worst(np.maximum(g.kt, 0.0)) * inv_t
-        self.beta_down = worst(np.maximum(-g.kt, 0.0)) * inv_t
+        t, k, p3 = worst(g.t), worst(g.k), worst(g.p3)
+        kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
         self.window = window
-        if window > 0:
-            self.jmax = _JERK_SHARE * lim.jmax[None, :]
-            self.t_win, self.k3, self.p3 = t / window, 3.0 * worst(g.k), worst(g.p3)
+        # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
+        self.axes = []
+        for i in range(3):
+            if not (t[i].any() or k[i].any() or p3[i].any()):
+                continue
+            moving = t[i] > 0
+            inv_t = np.where(moving, 1.0 / np.where(moving, t[i], 1.0), 0.0)
+            row = {"alpha": np.where(moving, lim.amax[i] * inv_t, np.inf),
+                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t}
+            if window > 0:
+                row.update(jmax=_JERK_SHARE * lim.jmax[i], t_win=t[i] / window, k3=3.0 * k[i], p3=p3[i])
+            self.axes.append(row)
 
     def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
         up to twice the budget within Tj), elsewhere for jumps of up to the budget."""
-        y = level[:, None]
+        y = level
+        up = np.full(len(y), np.inf)
+        down = np.full(len(y), np.inf)
         with np.errstate(invalid="ignore", divide="ignore"):
-            up = np.min(self.alpha - self.beta_up * y, axis=1)
-            down = np.min(self.alpha - self.beta_down * y, axis=1)
             if self.window > 0:
                 root = np.sqrt(y)
-                t_win = self.t_win if swing is None else self.t_win * (1.0 + swing)[:, None]
-                coeff = t_win + self.k3 * root
-                jerk = np.min(np.where(coeff > 0, (self.jmax - self.p3 * (y * root)) / coeff, np.inf), axis=1)
-                up, down = np.minimum(up, jerk), np.minimum(down, jerk)
+                y_root = y * root
+                widen = None if swing is None else 1.0 + swing
+            for row in self.axes:
+                np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
+                np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                if self.window > 0:
+                    t_win = row["t_win"] if widen is None else row["t_win"] * widen
+                    coeff = t_win + row["k3"] * root
+                    jerk = np.where(coeff > 0, (row["jmax"] - row["p3"] * y_root) / coeff, np.inf)
+                    np.minimum(up, jerk, out=up)
+                    np.minimum(down, jerk, out=down)
         clean = [np.maximum(np.where(np.isfinite(b), b, 1e12), 1e-9) for b in (up, down)]
         return clean[0], clean[1]
 
@@ -297,19 +332,46 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:]])
     geo, sp = _geometry(curve, pts, np.tile(k_iv, 3), lim.cols)
     speed_u = np.r_[sp[:m], sp[-1]]
-    feed = feed_of_u(np.tile(0.5 * (u[:-1] + u[1:]), 3))
+    feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     cap = np.minimum(np.min(y_vel.reshape(3, m), axis=0), _RHO * np.min(y_acc.reshape(3, m), axis=0))
     stops = np.searchsorted(u, stop_u)
-    window = float(np.max((lim.amax / lim.jmax)[list(lim.cols)])) if jerk else 0.0
-
-    budget_of = _Budgets(geo, m, lim, window)
-    y, budget = _profile(cap, stops, ds, budget_of)
-    if jerk:
-        y = _filterable(y, cap, budget_of, stops, ds, window, _stop_waits(len(u), stops, stop_dwell, window,
-                                                                          lim.period))
+    if not jerk:
+        y, _ = _profile(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
+        window = 0.0
+    else:
+        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim)
     accel = np.diff(y) / (2.0 * ds)
     return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
+
+
+def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray, geo: _Geometry,
+                  m: int, lim: PathLimits) -> tuple[np.ndarray, float]:
+    """The jerk-limited profile and its filter length Tj.
+
+    The filter allows an acceleration jump of jmax Tj within Tj, so Tj = amax / jmax lets the tangential
+    acceleration reach amax on straight stretches. Where curvature terms hold the tangential budget far
+    below that anyway (dense, tightly curved code: the motion spends less than _SHORT_WINDOW_USE of its
+    time above half of it), a window half as long costs little acceleration and halves every reach (caps
+    are taken over the stretch the window spans) and every rest at a stop; both are planned then, and the
+    one with the shorter motion (rests included) is kept."""
+    base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
+    best: tuple[float, np.ndarray, float] | None = None
+    for share in _WINDOWS:
+        window = share * base
+        budget_of = _Budgets(geo, m, lim, window)
+        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
+        y, _ = _profile(cap, stops, ds, budget_of)
+        y = _filterable(y, cap, budget_of, stops, ds, window, rest)
+        dt = np.diff(_node_times(y, ds))
+        total = float(dt.sum() + rest.sum()) + window
+        if best is None or total < best[0]:
+            best = (total, y, window)
+        full = _JERK_SHARE * float(np.min(lim.jmax[list(lim.cols)])) * window  # the straight-line budget
+        if float(dt[np.abs(np.diff(y) / (2.0 * ds)) > 0.5 * full].sum()) >= _SHORT_WINDOW_USE * dt.sum():
+            break
+    assert best is not None
+    return best[1], best[2]
 
 
 def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
@@ -331,7 +393,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     swing = np.zeros(m, dtype=bool)
     fastest = y
     for _ in range(_SWING_ROUNDS):
-        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window)
+        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
         node_cap[stops] = 0.0
@@ -366,16 +428,28 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
 
 
 def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.ndarray, stops: np.ndarray,
-                  ds: np.ndarray, window: float):
-    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval)."""
+                  ds: np.ndarray, window: float, rest: np.ndarray):
+    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval).
+
+    The reach of interval k: every interval the filtered motion is on while its window holds some of the
+    time spent on k. The window holds it from the time the motion leaves node k until Tj after it reaches
+    node k + 1, and the filtered position only grows, so the filtered motion is between s_f(leave k) and
+    s_f(reach k+1, plus Tj): about half a window's travel each side, since s_f lags by about Tj / 2. A faster
+    profile (faster at every s) gives a wider reach: the window's average lies further back and ahead."""
     m = len(ds)
+    s_nodes = np.concatenate([[0.0], np.cumsum(ds)])
+    no_owner = np.full(m + 1, -1)
 
     def reach_of(faster: np.ndarray):
-        t = _node_times(faster, ds)
-        # an interval's reach: every interval passed within Tj of any time spent on it
-        lo = np.clip(np.searchsorted(t, t[:-1] - window, side="left") - 1, 0, m - 1)
-        hi = np.maximum(np.clip(np.searchsorted(t, t[1:] + window, side="right") - 1, 0, m - 1), lo)
-        return lo, hi
+        ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, no_owner)
+        depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
+        arrive = ph.start[0::2]
+        times = np.concatenate([depart[:-1], arrive[1:] + window])
+        filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
+        lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
+        hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
+        k = np.arange(m)
+        return np.minimum(lo, k), np.maximum(hi, k)
 
     def planned(faster: np.ndarray, limit: np.ndarray | None):
         lo, hi = reach_of(faster)
@@ -511,24 +585,28 @@ def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float,
     inner = np.zeros(n, dtype=bool)
     inner[stop_node] = True
     inner[[0, -1]] = False
-    wait[inner] = np.maximum(wait[inner], period) + window
+    wait[inner] = wait[inner] + window if window > 0 else np.maximum(wait[inner], period)
     return wait
 
 
 def _phases(law: TimeLaw) -> _Phases:
-    s, y = law.s, law.y
+    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.window, law.period)
+    owner = np.full(len(law.s), -1)
+    owner[law.stop_node] = law.stop_segment
+    return _phases_of(law.s, law.y, law.accel, wait, owner)
+
+
+def _phases_of(s: np.ndarray, y: np.ndarray, accel: np.ndarray, wait: np.ndarray, owner: np.ndarray) -> _Phases:
+    """Phases of a profile y at nodes s, waiting ``wait`` at each node (dwell segment ``owner`` or -1)."""
     v = np.sqrt(np.maximum(y, 0.0))
     dt = 2.0 * np.diff(s) / np.maximum(v[:-1] + v[1:], 1e-300)
-    wait = _stop_waits(len(s), law.stop_node, law.stop_wait, law.window, law.period)
-    owner = np.full(len(s), -1)
-    owner[law.stop_node] = law.stop_segment
     n = len(s)
     dur, s0, v0, acc, own = np.empty(2 * n - 1), np.empty(2 * n - 1), np.zeros(2 * n - 1), np.zeros(2 * n - 1), \
         np.full(2 * n - 1, -1)
     dur[0::2], dur[1::2] = wait, dt
     s0[0::2], s0[1::2] = s, s[:-1]
     v0[1::2] = v[:-1]
-    acc[1::2] = law.accel
+    acc[1::2] = accel
     own[0::2] = owner
     start = np.concatenate([[0.0], np.cumsum(dur)[:-1]])
     return _Phases(start, dur, s0, v0, acc, own)

@@ -32,8 +32,8 @@ def test_a_sweep_writes_csv_parquet_and_a_report(tmp_path):
     assert list(rows[0])[:10] == ["variant", "status", "error", "duration_s", "ran", "cached", "worker",
                                   "gcode.file", "rule", "plan.tolerance"]
     assert [r["status"] for r in rows] == ["done", "done", "failed", "failed", "done", "done"]
-    assert "check failed: cycle time = 6.588" in rows[2]["error"] and rows[2]["out.checked"] == ""
-    assert float(rows[2]["out.cycle_time"]) == pytest.approx(6.588, abs=0.01)
+    assert "check failed: cycle time = 6.496" in rows[2]["error"] and rows[2]["out.checked"] == ""
+    assert float(rows[2]["out.cycle_time"]) == pytest.approx(6.496, abs=0.01)
     assert pq.read_table(out / "rows.parquet").to_pylist()[0]["out.cycle_time"] == float(rows[0]["out.cycle_time"])
     report = (out / "report.html").read_text()
     assert "Pareto front" in report and "cycle_time against gcode.file" in report and "Plotly.newPlot" in report
