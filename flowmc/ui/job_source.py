@@ -118,6 +118,6 @@ def _window(kind: str, title: str, lines: list[str], current: int, label: str = 
                     f"{escape_html(lines[n - 1], 300)}</div>")
     where = f"{label}{current}" if label else f"line {current}"
     return (f"<div class='flowmc-source' data-kind='{kind}' data-line='{current}' "
-            f"style='font-family:monospace;font-size:12px;margin-top:6px;border:1px solid #dee2e6;"
+            f"style='contain:inline-size;font-family:monospace;font-size:12px;margin-top:6px;border:1px solid #dee2e6;"
             f"border-radius:4px;padding:2px 4px'><div style='color:#666;font-family:sans-serif;font-size:11px'>"
             f"{escape_html(title)} · {escape_html(where)}</div>{''.join(rows)}</div>")
