@@ -5,7 +5,6 @@ source, with the text of every line shown literally (a hostile comment stays tex
 from __future__ import annotations
 
 import json
-import shutil
 import time
 from pathlib import Path
 
