@@ -1,5 +1,6 @@
 """The job panel: Start, Hold/Resume, Stop and E-stop for the graph's device nodes, with feed, rapid and
-spindle overrides, a DRO, progress with time left, I/O lamps and a job log.
+spindle overrides, a DRO, progress with time left, I/O lamps, the source lines around where the job is
+(``job_source``) and a job log. The E-STOP sits above the folded Machine section, in sight from load.
 
 Running the graph (Run, a front-panel change) only prepares device jobs: nothing moves until Start
 here. Start runs the graph as it is now through the editor's one run queue (the pre-flight: each
