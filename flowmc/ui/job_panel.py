@@ -1,5 +1,6 @@
 """The job panel: Start, Hold/Resume, Stop and E-stop for the graph's device nodes, with feed, rapid and
-spindle overrides, a DRO, progress with time left, I/O lamps and a job log.
+spindle overrides, a DRO, progress with time left, I/O lamps, the source lines around where the job is
+(``job_source``) and a job log. The E-STOP sits above the folded Machine section, in sight from load.
 
 Running the graph (Run, a front-panel change) only prepares device jobs: nothing moves until Start
 here. Start runs the graph as it is now through the editor's one run queue (the pre-flight: each
@@ -21,12 +22,14 @@ import viser
 
 from flowmc.errors import FlowmcError
 from flowmc.runtime import Start
+from flowmc.ui.job_source import SourceView, empty_html
 from flowmc.ui.session import RunRefused
 from flowmc.ui.text import escape_html, md
 
 __all__ = ["JobPanel", "RATE", "PACES", "SHORTCUTS"]
 
 RATE = 25.0  # page updates per second while a job runs (the DRO, progress, lamps)
+SOURCE_RATE = 4.0  # at most this many updates a second of the source lines around the current one
 #: The tool in the 3D view moves less often: each move redraws that scene, which a browser without a
 #: GPU (software WebGL) renders on the page's one main thread, where Esc and E-stop clicks wait.
 TOOL_RATE = 8.0
@@ -67,6 +70,9 @@ class JobPanel:
         self._shown: dict[str, Any] = {}
         self._tool_at: Any = None
         self._tool_time = 0.0
+        self._source: SourceView | None = None  # the started graph's G-code and segment tables
+        self._source_at: Any = None
+        self._source_time = 0.0
         self._last: tuple[Any, Any] | None = None  # the last run's request and the front panel's values then
         self._build()
         self.session.on_result(self._on_result)
@@ -76,6 +82,9 @@ class JobPanel:
     # ------------------------------------------------------------------ layout
     def _build(self) -> None:
         gui = self.gui
+        # Outside the folder: in sight from the page's load, folded panel or not, job or no job.
+        self.estop_button = gui.add_button("E-STOP", color="red", icon=viser.Icon.ALERT_OCTAGON,
+                                           hint="Stop every axis at once; outputs safe (Ctrl+Shift+E)")
         self.folder = gui.add_folder("Machine", expand_by_default=False)  # unfolded to Start; then in sight
         with self.folder:
             self.start_button = gui.add_button("Start", color="green", icon=viser.Icon.PLAYER_PLAY,
@@ -84,9 +93,8 @@ class JobPanel:
                                               hint="Feed hold: decelerate along the path and wait (Esc)")
             self.stop_button = gui.add_button("Stop", color="orange", icon=viser.Icon.PLAYER_STOP, disabled=True,
                                               hint="Controlled stop along the path, then clear the rest (Shift+Esc)")
-            self.estop_button = gui.add_button("E-STOP", color="red", icon=viser.Icon.ALERT_OCTAGON,
-                                               hint="Stop every axis at once; outputs safe (Ctrl+Shift+E)")
             self.live = gui.add_html(live_html(None, "", False))
+            self.source_view = gui.add_html(empty_html())
             with gui.add_folder("Overrides", expand_by_default=True):
                 self.feed = gui.add_slider("Feed %", min=10, max=200, step=5, initial_value=100)
                 self.rapid = gui.add_button_group("Rapid", RAPIDS)
@@ -144,6 +152,8 @@ class JobPanel:
                 self._note("pre-flight: the last run's jobs (graph and front panel unchanged since)")
             self.active = True
             self.runners, self.runner, self._status = [], None, None
+            with self.session.lock:
+                self._source = SourceView(self.session.state.graph, self.session.state.base_dir)
         threading.Thread(target=self._start_after, args=(request,), name="flowmc-job-start", daemon=True).start()
         self._dirty.set()
         return True
@@ -348,8 +358,27 @@ class JobPanel:
         if self._set("live", live_html(status, self.node_id, active), lambda v: setattr(self.live, "content", v)):
             self.pushed += 1
         self._tool(status if moving else None)
+        self._show_source(status, runner)
         self._set("log", "\n\n".join(md("{}", line) for line in log) or "",
                   lambda v: setattr(self.log_view, "content", v))
+
+    def _show_source(self, status: Any, runner: Any) -> None:
+        """The source lines around the job's segment or G-code line: sent when they change, at most
+        ``SOURCE_RATE`` times a second (a change held back asks the refresher to come again)."""
+        source = self._source
+        if status is None or runner is None or source is None:
+            return
+        at = (id(runner), status.segment, status.line)
+        if at == self._source_at:
+            return
+        now = time.monotonic()
+        if now - self._source_time < 1.0 / SOURCE_RATE:
+            self._dirty.set()
+            return
+        self._source_at, self._source_time = at, now
+        names = tuple(getattr(runner.job, "segment_names", ()))
+        self._set("source", source.html(names, status.segment, status.line),
+                  lambda v: setattr(self.source_view, "content", v))
 
     def _set(self, key: str, value: Any, apply: Any) -> bool:
         """Send ``value`` to the page only when it changed (True when sent)."""

@@ -109,7 +109,17 @@ _PAGE_JS = """
     const el = cell(table, f.r, f.c);
     if (el) el.focus();
   };
+  const pin = (b) => {  // the job panel's E-STOP (not the Device tab's) stays at the top while the panel scrolls
+    if (b.textContent.trim() !== "E-STOP" || b.closest('[role="tabpanel"]') || !b.parentElement) return;
+    Object.assign(b.parentElement.style, { position: "sticky", top: "0", zIndex: "5",
+                                           background: "var(--mantine-color-body, white)" });
+    b.dataset.flowmcEstop = "1";
+    // overflow:hidden between it and the panel's scroller would hold it (sticky sticks to the nearest
+    // scroll container); overflow:clip clips the same and is no scroll container
+    for (let e = b.parentElement.parentElement; e && !e.classList.contains("mantine-ScrollArea-viewport"); e = e.parentElement)
+      if (getComputedStyle(e).overflowY === "hidden") e.style.overflow = "clip"; };
   const scan = (root) => { if (!root.querySelectorAll) return;
+    root.querySelectorAll("button").forEach(pin);
     root.querySelectorAll("iframe[data-flowmc-port]").forEach(point); root.querySelectorAll("label").forEach(hide);
     root.querySelectorAll("table[data-flowmc-grid]").forEach(refocus); };
   new MutationObserver(records => records.forEach(r => r.addedNodes.forEach(scan))).observe(document.body,

@@ -95,6 +95,9 @@ def test_hold_with_esc_at_30_percent_resume_and_feed_override_50(ui, tmp_path):
     wait_until(lambda: runner.state == "held", 20, "held")
     _shown_state(ui, "held")
     assert ui.page.get_by_role("button", name="Resume", exact=True).is_enabled()
+    row = ui.page.locator(".flowmc-source[data-kind='table'] .flowmc-src-current")  # the segment table's row
+    wait_until(lambda: row.count() == 1 and f"row {row.get_attribute('data-n')}"
+               == runner.job.segment_names[runner.status.segment], 10, "the held row highlighted")
     time.sleep(1.0)
     ui.page.locator(".flowmc-live").scroll_into_view_if_needed()
     ui.page.screenshot(path=str(tmp_path / "held.png"))
