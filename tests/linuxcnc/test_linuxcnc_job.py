@@ -91,37 +91,27 @@ def test_hold_stops_the_motion_on_the_path_and_resume_ends_at_the_programmed_end
     assert not live_linuxcnc_processes()
 
 
-def test_abort_stops_along_the_path_and_leaves_the_spindle_off():
+@pytest.mark.parametrize("command, outcome, said", [("stop", "aborted", "stopped by the operator"),
+                                                     ("estop", "estop", "e-stop")])
+def test_stop_and_estop_end_the_job_aborted_with_the_spindle_off(command, outcome, said):
     runner, ticks = _start()
     _wait(lambda: _x(ticks) > 8.0, what="X past 8 mm")
     x_stop = _x(ticks)
-    runner.stop()
+    getattr(runner, command)()
     assert runner.wait(60.0)
-    assert runner.state == "aborted" and "stopped by the operator" in runner.message
+    assert runner.state == "aborted" and said in runner.message
     log = runner.log
-    assert log.outcome == "aborted"
-    _within_limits(log)  # a controlled stop along the path
-    # stopped within what the 20 ms command poll and the 10 ms display loop let it travel at 10 mm/s,
-    # plus the braking distance v^2/2a (0.25 mm); the rest of the job is cleared
-    assert x_stop < log.end_position[0] < x_stop + SPEED * 0.15 + SPEED**2 / (2 * AMAX)
-    spindle = [c for c in log.changes if c.kind == "spindle_rpm"]
-    assert [c.value for c in spindle] == [1000.0, 0.0]  # on with the program, off after the abort
-    assert log.state["spindle_rpm"] == 0.0
-    assert not live_linuxcnc_processes()
-
-
-def test_estop_stops_at_once_and_leaves_the_spindle_off():
-    runner, ticks = _start()
-    _wait(lambda: _x(ticks) > 8.0, what="X past 8 mm")
-    x_stop = _x(ticks)
-    runner.estop()
-    assert runner.wait(60.0)
-    assert runner.state == "aborted" and runner.message.startswith("e-stop")
-    log = runner.log
-    assert log.outcome == "estop"
-    v = np.diff(log.position[:, 0]) / log.period
-    assert v.min() > -1e-6
-    assert np.abs(np.diff(v)).max() / log.period > 10 * AMAX  # no deceleration ramp: LinuxCNC's e-stop
-    assert x_stop < log.end_position[0] < x_stop + SPEED * 0.15
-    assert [c.value for c in log.changes if c.kind == "spindle_rpm"] == [1000.0, 0.0]
+    assert log.outcome == outcome
+    # stopped soon after the command (the 20 ms command poll, the display program's 10 ms loop and
+    # LinuxCNC's task cycle; about 80 ms measured, 0.5 s allowed on a loaded machine), well short of
+    # the end: the rest of the job is cleared
+    assert x_stop < log.end_position[0] < x_stop + SPEED * 0.5 + SPEED**2 / (2 * AMAX)
+    if command == "stop":
+        _within_limits(log)  # a controlled stop along the path, within the acceleration limit
+    else:
+        v = np.diff(log.position[:, 0]) / log.period
+        assert v.min() > -1e-6
+        assert np.abs(np.diff(v)).max() / log.period > 10 * AMAX  # no deceleration ramp: LinuxCNC's e-stop
+    assert [c.value for c in log.changes if c.kind == "spindle_rpm"] == [1000.0, 0.0]  # on, then off
+    assert log.state["spindle_rpm"] == 0.0 and not any(log.state["dout"])
     assert not live_linuxcnc_processes()
