@@ -51,7 +51,7 @@ def _quiet(run):
         pass
 
 
-def _wait(check, timeout=90.0, what="condition"):
+def _wait(check, timeout=300.0, what="condition"):  # long: another session may hold the machine
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         if check():
@@ -114,4 +114,21 @@ def test_stop_and_estop_end_the_job_aborted_with_the_spindle_off(command, outcom
         assert np.abs(np.diff(v)).max() / log.period > 10 * AMAX  # no deceleration ramp: LinuxCNC's e-stop
     assert [c.value for c in log.changes if c.kind == "spindle_rpm"] == [1000.0, 0.0]  # on, then off
     assert log.state["spindle_rpm"] == 0.0 and not any(log.state["dout"])
+    assert not live_linuxcnc_processes()
+
+
+def test_feed_override_halves_the_speed_for_the_rest_of_the_job():
+    runner, ticks = _start()
+    _wait(lambda: _x(ticks) > 5.0, what="X past 5 mm")
+    runner.set_overrides(feed=50.0)
+    assert runner.wait(60.0)
+    assert runner.state == "done" and runner.status.feed == 50.0
+    log = runner.log
+    np.testing.assert_allclose(log.end_position, [LENGTH, 0.0, 0.0], atol=1e-9)
+    _within_limits(log)
+    v = np.diff(log.position[:, 0]) / log.period
+    moving = v > 1e-9
+    assert v[np.flatnonzero(log.position[1:, 0] < 5.0)].max() == pytest.approx(SPEED, rel=1e-3)
+    late = (log.position[1:, 0] > 15.0) & (log.position[1:, 0] < LENGTH - 1.0) & moving
+    np.testing.assert_allclose(v[late], SPEED / 2, rtol=1e-3)  # the rest at 5 mm/s
     assert not live_linuxcnc_processes()

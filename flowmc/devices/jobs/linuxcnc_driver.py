@@ -6,8 +6,9 @@ planner decelerates along the path within the acceleration limits and keeps its 
 AUTO_RESUME, stop the task's abort (a stop along the path, the rest cleared) and e-stop the machine's
 e-stop state; after either the spindle and the digital outputs (but the kept ones) are switched off
 and DA set to 0 V. LinuxCNC's state comes back as events: ``held`` once paused at rest, a position
-every 40 ms (each a job tick), the program line. Overrides and single block are not passed on yet:
-they are refused with a message.
+every 40 ms (each a job tick), the program line. Feed, rapid and spindle overrides are LinuxCNC's own
+(``feedrate``, ``rapidrate``, ``spindleoverride``: the planner re-times the rest within its limits).
+Single block and the optional stop are not passed on yet: they are ignored with a message.
 """
 
 from __future__ import annotations
@@ -35,7 +36,11 @@ class LinuxCNCDriver:
 
     def commands(self) -> list[str]:
         out = []
-        for name, _value in self.runner.take_commands():
+        for name, value in self.runner.take_commands():
+            if name in ("feed", "rapid", "spindle"):  # checked by the runner: feed 10-200, rapid 25/50/100 %
+                out.append(f"{name} {float(value):g}")
+                self.runner.emit("log", f"{name} override {value:g} %", **{name: float(value)})
+                continue
             if name not in _SENT:
                 self.runner.emit("log", f"{name} is not passed to LinuxCNC yet: ignored")
                 continue

@@ -14,7 +14,8 @@ the program runs, each new line of [FLOWMC] COMMANDS is one command, given to th
 as an operator would (``pause``: AUTO_PAUSE, a feed hold that decelerates along the
 path; ``resume``: AUTO_RESUME; ``abort``: the task's abort, a stop along the path within
 the acceleration limits that clears the rest, then spindle and outputs off; ``estop``:
-the machine's e-stop state at once, then the same outputs off).
+the machine's e-stop state at once, then the same outputs off; ``feed P``, ``rapid P``,
+``spindle P``: the overrides, P in %).
 """
 
 import json
@@ -145,13 +146,17 @@ class Run:
             return []
         complete = chunk[: chunk.rfind("\n") + 1]
         self.commands_offset += len(complete.encode())
-        return complete.split()
+        return [line.split() for line in complete.splitlines() if line.strip()]
 
-    def operator(self, name):
+    def operator(self, name, *value):
         """One operator command while the program runs; returns how the run ends ("aborted"/"estop") or None."""
         lc, c, s = self.lc, self.command, self.stat
         s.poll()
-        self.emit("message", error=False, text=f"{name} at line {s.motion_line}")
+        self.emit("message", error=False, text=f"{' '.join([name, *value])} at line {s.motion_line}")
+        if name in ("feed", "rapid", "spindle"):  # overrides, in %
+            scale = float(value[0]) / 100.0
+            {"feed": c.feedrate, "rapid": c.rapidrate, "spindle": c.spindleoverride}[name](scale)
+            return None
         if name == "pause" and not s.paused:
             c.auto(lc.AUTO_PAUSE)
             self.emit("state", state="holding", line=s.motion_line)
@@ -213,8 +218,8 @@ class Run:
         held = False
         while True:
             time.sleep(0.01)
-            for name in self.take_commands():
-                ended = self.operator(name)
+            for words in self.take_commands():
+                ended = self.operator(*words)
                 if ended:
                     return ended
             self.stat.poll()
