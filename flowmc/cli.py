@@ -261,29 +261,21 @@ def _graph_values(file: str, registry: Any) -> tuple[Any, Any, Any, Any]:
     """The last Path and Machine the graph produces, and its look-ahead plan and that node's params if it
     has one."""
     import flowmc
-    from flowmc.motion.machine import Machine
-    from flowmc.motion.path import Path as MotionPath
     from flowmc.motion.trajectory import Trajectory
 
     graph = flowmc.load(file)
     result = flowmc.Runtime(registry).run(graph)
     if not result.ok:
         raise GraphError("the graph failed: " + "; ".join(result.errors), where=file)
-    types = {node.id: node.type for node in graph.nodes}
-    path = machine = plan = plan_params = None
-    params = {node.id: node.params for node in graph.nodes}
-    for node_id in result.order:
-        outputs = result.nodes[node_id].outputs
-        for value in outputs.values():
-            if isinstance(value, MotionPath):
-                path = value
-            elif isinstance(value, Machine):
-                machine = value
-        if types.get(node_id) == "plan.lookahead" and isinstance(outputs.get("trajectory"), Trajectory):
-            plan, plan_params = outputs["trajectory"], params.get(node_id) or {}
-    if path is None:
+    paths, machines = result.values_of("Path"), result.values_of("Machine")
+    if not paths:
         raise GraphError("the graph produces no Path to compare", where=file)
-    return path, machine, plan, plan_params
+    plan = plan_params = None
+    for node in graph.nodes:
+        trajectory = result.nodes[node.id].outputs.get("trajectory") if node.id in result.nodes else None
+        if node.type == "plan.lookahead" and isinstance(trajectory, Trajectory):
+            plan, plan_params = trajectory, node.params or {}
+    return paths[-1][2], machines[-1][2] if machines else None, plan, plan_params
 
 
 def cmd_compare(args: argparse.Namespace) -> int:

@@ -7,9 +7,9 @@ so NaN is a stable key (not an always-miss) and ``-0.0`` differs from ``0.0``.
 from __future__ import annotations
 
 import hashlib
+import sys
 from typing import Any
 
-import numpy as np
 from pydantic import BaseModel
 
 __all__ = ["digest", "Undigestable"]
@@ -49,10 +49,8 @@ def _feed(h: Any, value: Any) -> None:
             _feed(h, key)
             _feed(h, value[key])
         h.update(b"}")
-    elif isinstance(value, np.ndarray):
+    elif _is_numpy(value):
         _feed_array(h, value)
-    elif isinstance(value, np.generic):
-        _feed_array(h, np.asarray(value))
     elif isinstance(value, BaseModel):
         h.update(b"m" + type(value).__qualname__.encode() + b":")
         _feed(h, value.model_dump_json())
@@ -63,7 +61,16 @@ def _feed(h: Any, value: Any) -> None:
         raise Undigestable(f"a {type(value).__name__} has no content digest (value types must define digest())")
 
 
-def _feed_array(h: Any, array: np.ndarray) -> None:
+def _is_numpy(value: Any) -> bool:
+    """A numpy array or scalar; asked without importing numpy (none exists before it is imported)."""
+    np = sys.modules.get("numpy")
+    return np is not None and isinstance(value, (np.ndarray, np.generic))
+
+
+def _feed_array(h: Any, value: Any) -> None:
+    import numpy as np
+
+    array = np.asarray(value)
     if array.dtype == object:
         h.update(b"A" + repr(array.shape).encode() + b"[")
         for item in array.ravel():

@@ -14,11 +14,13 @@ they are, for callers that know which card they open.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
-from flowmc.devices.card import MotionCard
 from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
+
+if TYPE_CHECKING:  # the card interface (numpy, pre-flight) comes with the backend that opens one
+    from flowmc.devices.card import MotionCard
 
 __all__ = ["DeviceOptions", "SimOptions", "GrblOptions", "open_device", "unconnected", "check_spec",
            "register_backend", "known_devices"]
@@ -61,7 +63,7 @@ class DeviceOptions:
         return dict(self.resume) if self.resume and self.resume.get("device") == kind else None
 
 
-Factory = Callable[..., MotionCard]  # factory(argument, machine, options, **kwargs)
+Factory = Callable[..., "MotionCard"]  # factory(argument, machine, options, **kwargs)
 
 
 def _no_argument(name: str, argument: str) -> None:

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from flowmc.motion.values import array_digest
+if TYPE_CHECKING:
+    import numpy as np  # imported where used: a graph's params validate without numpy
 
 __all__ = ["Axis", "Machine", "default_machine"]
 
@@ -61,9 +61,13 @@ class Machine(BaseModel):
 
     def column(self, field: str) -> np.ndarray:
         """One limit for every axis as an array, e.g. ``machine.column("vmax")``."""
+        import numpy as np
+
         return np.array([getattr(a, field) for a in self.axes], dtype=float)
 
     def digest(self) -> str:
+        from flowmc.motion.values import array_digest
+
         return array_digest("Machine", self.model_dump_json())
 
     def summary(self) -> dict:

@@ -10,14 +10,17 @@ full turns; with ``dz`` the arc climbs into a helix.
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Literal, Union
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import flowmc.budget as budget
 from flowmc.errors import PathError
-from flowmc.motion.path import Arc, EllipseArc, Line, Path, Segment
+
+if TYPE_CHECKING:  # the rows are a node's params: they validate without numpy or the path types
+    import numpy as np
+
+    from flowmc.motion.path import Arc, EllipseArc, Path, Segment
 
 __all__ = ["LineRow", "ArcRow", "EllipseRow", "Row", "path_from_rows"]
 
@@ -81,6 +84,10 @@ def _check_direction(row, where: str) -> float:
 
 
 def _arc(row: ArcRow, start: np.ndarray, state: dict, where: str) -> Arc:
+    import numpy as np
+
+    from flowmc.motion.path import Arc
+
     sweep = _check_direction(row, where)
     a0 = math.radians(row.start_angle)
     center = start - row.radius * np.array([math.cos(a0), math.sin(a0), 0.0])
@@ -94,6 +101,8 @@ def _arc(row: ArcRow, start: np.ndarray, state: dict, where: str) -> Arc:
 
 
 def _ellipse(row: EllipseRow, start: np.ndarray, state: dict, where: str) -> EllipseArc:
+    from flowmc.motion.path import EllipseArc
+
     sweep = _check_direction(row, where)
     t0 = math.radians(row.start_angle)
     probe = EllipseArc.from_axes((0.0, 0.0, 0.0), row.a, row.b, math.radians(row.rotation), t0, t0 + sweep, **state)
@@ -105,7 +114,10 @@ def path_from_rows(rows, start=(0.0, 0.0, 0.0), feed: float = 100.0) -> Path:
 
     Errors name the row (1-based), e.g. ``row 3: a cw arc needs end_angle < start_angle``.
     """
+    import numpy as np
     from pydantic import TypeAdapter, ValidationError
+
+    from flowmc.motion.path import Line, Path
 
     budget.check("rows", len(rows), what=f"a table of {len(rows):,} rows",
                  change="split the table, or read long programs from a G-code file")

@@ -12,7 +12,6 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from flowmc.errors import NodeError
-from flowmc.motion.table import Table
 from flowmc.registry import In, NodeType, Out, Ports, register
 
 
@@ -244,6 +243,8 @@ class Report(NodeType):
         return Ports(inputs, cls.outputs)
 
     def run(self, ctx, params: ReportParams, **values: Any):
+        from flowmc.motion.table import Table
+
         numbers = [float(values[name]) for name in params.names]
         lines = [params.title] if params.title else []
         lines += [f"{name} = {value:.{params.digits}g}" for name, value in zip(params.names, numbers)]

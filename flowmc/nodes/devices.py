@@ -17,21 +17,20 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import TYPE_CHECKING, Annotated, Literal
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions, check_spec
-from flowmc.devices.log import DeviceLog
-from flowmc.devices.preflight import preflight
 from flowmc.devices.ranges import CARD_6050
 from flowmc.errors import DeviceError, NodeError
 from flowmc.motion.machine import Axis, Machine, default_machine
-from flowmc.motion.path import describe_segment
-from flowmc.motion.trajectory import Signal, Steps, Trajectory
 from flowmc.registry import In, NodeType, Out, register
 
-if TYPE_CHECKING:  # the job machinery is imported when a job is prepared: `flowmc validate` stays light
+if TYPE_CHECKING:  # numpy, the value types and the job machinery are imported when a node runs:
+    import numpy as np  # `flowmc validate` (params and ports only) stays light
+
     from flowmc.devices.jobs import Job
+    from flowmc.devices.log import DeviceLog
+    from flowmc.motion.trajectory import Signal
 
 _MOTION_IN = In("motion", ("Trajectory", "Steps"), doc="The program: setpoints or a step stream")
 _MACHINE_IN = In("machine", "Machine", doc="Axis limits and period (default: the default machine)", default=None)
@@ -66,6 +65,8 @@ class _DeviceParams(_Params):
 def _machine_for(machine: Machine | None, motion=None) -> Machine:
     if machine is not None:
         return machine
+    from flowmc.motion.trajectory import Trajectory
+
     if isinstance(motion, Trajectory):
         return default_machine(period=motion.period)
     return default_machine()
@@ -160,6 +161,8 @@ class PreflightNode(NodeType):
 
     def run(self, ctx, params: PreflightParams, motion, signals=None, machine=None):
         machine = _machine_for(machine, motion)
+        from flowmc.devices.preflight import preflight
+
         report = preflight(motion, machine, signals, ranges=CARD_6050.with_analog(params.analog))
         return {"report": report.table(machine)}
 
@@ -274,6 +277,11 @@ class _SignalParams(_Params):
 
 def _times(at: str, given: list[float], motion) -> np.ndarray:
     """Times of the change points: as given, or the first setpoint of each segment (numbered from 1)."""
+    import numpy as np
+
+    from flowmc.motion.path import describe_segment
+    from flowmc.motion.trajectory import Steps, Trajectory
+
     points = np.asarray(given, dtype=float)
     if at == "time":
         return points
@@ -297,6 +305,8 @@ def _times(at: str, given: list[float], motion) -> np.ndarray:
 
 
 def _chain(signals: Signal | None, t, kind, channel, value) -> Signal:
+    from flowmc.motion.trajectory import Signal
+
     new = Signal(t, kind, channel, value)
     return new if signals is None else signals.merged(new)
 
@@ -344,6 +354,8 @@ class Pwm(NodeType):
     outputs = (_SIGNALS_OUT,)
 
     def run(self, ctx, params: PwmParams, motion=None, signals=None):
+        import numpy as np
+
         t = _times(params.at, [c.at for c in params.changes], motion)
         n = len(t)
         return {"signals": _chain(signals, np.concatenate([[0.0], t]), ["pwm_freq"] + ["pwm_duty"] * n,
@@ -388,6 +400,7 @@ class IONow(_DeviceNode):
 
     def prepare(self, ctx, params: _DeviceParams, signals=None, machine=None) -> Job:
         from flowmc.devices.jobs.prepare import io_job
+        from flowmc.motion.trajectory import Signal
 
         return io_job(params.device, _machine_for(machine), signals if signals is not None else Signal(),
                       _options(params), name=ctx.node_id)

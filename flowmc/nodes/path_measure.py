@@ -4,11 +4,9 @@ from __future__ import annotations
 
 from typing import Annotated
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from flowmc.errors import PathError
-from flowmc.motion.table import Table
 from flowmc.registry import In, NodeType, Out, register
 
 
@@ -35,6 +33,10 @@ class MeasurePath(NodeType):
     )
 
     def run(self, ctx, params: MeasureParams, path):
+        import numpy as np
+
+        from flowmc.motion.table import Table
+
         starts = np.array([s.start for s in path.segments]).reshape(-1, 3)
         ends = np.array([s.end for s in path.segments]).reshape(-1, 3)
         chord = np.linalg.norm((ends - starts)[:, :2], axis=1)

@@ -6,7 +6,6 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from flowmc.motion.path import NurbsCurve, Path
 from flowmc.motion.segment_table import Row, path_from_rows
 from flowmc.registry import NodeType, Out, register
 
@@ -54,6 +53,8 @@ class Polyline(NodeType):
     outputs = (Out("path", "Path", doc="Lines through the points"),)
 
     def run(self, ctx, params: PolylineParams):
+        from flowmc.motion.path import Path
+
         pts = list(params.points) + ([params.points[0]] if params.closed else [])
         return {"path": Path.polyline(pts, feed=params.feed)}
 
@@ -80,6 +81,8 @@ class Nurbs(NodeType):
     outputs = (Out("path", "Path", doc="One NURBS segment"),)
 
     def run(self, ctx, params: NurbsParams):
+        from flowmc.motion.path import NurbsCurve, Path
+
         curve = NurbsCurve(params.control_points, params.weights, params.knots, params.degree, feed=params.feed,
                            source=f"node {ctx.node_id}")
         return {"path": Path([curve])}

@@ -11,7 +11,6 @@ from typing import Annotated
 from pydantic import BaseModel, ConfigDict, Field
 
 from flowmc.errors import PathError
-from flowmc.motion.path import Dwell, Line, Path
 from flowmc.registry import In, NodeType, Out, register
 
 _PATH_IN = In("path", "Path", doc="Path to change")
@@ -40,6 +39,8 @@ class SetState(NodeType):
     outputs = (_PATH_OUT,)
 
     def run(self, ctx, params: StateParams, path):
+        from flowmc.motion.path import Dwell, Path
+
         if not len(path):
             raise PathError("the path is empty", where=f"node {ctx.node_id}")
         out = path.with_feed(params.feed) if params.feed is not None else path
@@ -74,6 +75,8 @@ class Approach(NodeType):
     outputs = (_PATH_OUT,)
 
     def run(self, ctx, params: ApproachParams, path):
+        from flowmc.motion.path import Line, Path
+
         if not len(path):
             raise PathError("the path is empty", where=f"node {ctx.node_id}")
         here = (params.x, params.y, params.z)

@@ -1,21 +1,21 @@
 """Feed-planning nodes: the look-ahead planner, the stop-and-go baseline, and trajectory metrics.
 
-The work is in flowmc.motion.lookahead and flowmc.motion.metrics; these adapt ports and params.
+The work is in flowmc.motion.lookahead and flowmc.motion.metrics; these adapt ports and params, and
+import the algorithms when they run (validating a graph needs only params and ports).
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from flowmc.motion.lookahead import plan_lookahead, plan_stop_and_go
 from flowmc.motion.machine import Machine, default_machine
-from flowmc.motion.metrics import trajectory_report
-from flowmc.motion.path import Path
-from flowmc.motion.table import Table
-from flowmc.motion.trajectory import Trajectory
 from flowmc.registry import In, NodeType, Out, register
+
+if TYPE_CHECKING:
+    from flowmc.motion.path import Path
+    from flowmc.motion.trajectory import Trajectory
 
 _PATH_IN = In("path", "Path", doc="Program to plan")
 _MACHINE_IN = In("machine", "Machine", doc="Per-axis limits and period T (default: the default machine)", default=None)
@@ -48,6 +48,8 @@ class LookaheadPlanner(NodeType):
     outputs = (_TRAJ_OUT, _CYCLE_OUT)
 
     def run(self, ctx, params: LookaheadParams, path: Path, machine: Machine | None = None):
+        from flowmc.motion.lookahead import plan_lookahead
+
         plan = plan_lookahead(path, machine or default_machine(), rule=params.rule, tolerance=params.tolerance,
                               profile=params.profile)
         ctx.log(f"{len(plan.trajectory)} setpoints, {plan.cycle_time:.3f} s, {len(plan.corner_times)} corners "
@@ -73,6 +75,8 @@ class StopAndGoPlanner(NodeType):
     outputs = (_TRAJ_OUT, _CYCLE_OUT)
 
     def run(self, ctx, params: StopAndGoParams, path: Path, machine: Machine | None = None):
+        from flowmc.motion.lookahead import plan_stop_and_go
+
         plan = plan_stop_and_go(path, machine or default_machine(), profile=params.profile)
         ctx.log(f"{len(plan.trajectory)} setpoints, {plan.cycle_time:.3f} s")
         return {"trajectory": plan.trajectory, "cycle_time": plan.cycle_time}
@@ -102,6 +106,9 @@ class TrajectoryMetrics(NodeType):
                Out("contour_error", "Number", doc="Largest distance of a chord from the path (mm)"))
 
     def run(self, ctx, params: MetricsParams, trajectory: Trajectory, path: Path, machine: Machine | None = None):
+        from flowmc.motion.metrics import trajectory_report
+        from flowmc.motion.table import Table
+
         rep = trajectory_report(trajectory, path, machine or default_machine(), params.bound)
         rows = [("cycle_time", rep["cycle_time"], "s"), ("peak_velocity", rep["peak_velocity"], "x limit"),
                 ("peak_accel", rep["peak_accel"], "x limit"), ("contour_error", rep["contour_error"], "mm")]

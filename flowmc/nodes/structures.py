@@ -33,16 +33,13 @@ import hashlib
 import math
 import threading
 from dataclasses import dataclass
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 import flowmc.budget as budget
 from flowmc.errors import GraphError, NodeError
 from flowmc.graph import NAME_PATTERN, Issue
-from flowmc.motion.path import Path
-from flowmc.motion.table import Table
 from flowmc.nodes.subgraph import interface_ports
 from flowmc.ports import REQUIRED, In, Out, Ports
 from flowmc.registry import NodeType, register
@@ -204,6 +201,11 @@ def _bind_loop(cls: type[NodeType], params: _LoopParams, at: BindContext, needs_
 
 def _collect(name: str, body_type: str, values: list[Any], k_done: int) -> Any:
     """Every iteration's value of one output, as auto-indexing gathers them."""
+    import numpy as np  # the values' types: imported when a loop runs, not when a graph is validated
+
+    from flowmc.motion.path import Path
+    from flowmc.motion.table import Table
+
     if body_type == "Path":
         return Path.joined(values)
     index = np.arange(k_done, dtype=float)
@@ -227,6 +229,18 @@ class _Loop(NodeType):
 
     category = "Structures"
     holds_bodies = True
+    until_stop: ClassVar[bool] = False  # a While loop: the body has a stop output, and runs until it is true
+    limit_param: ClassVar[str]  # the param that bounds the iterations
+
+    @classmethod
+    def bind_graph(cls, params: _LoopParams, at: BindContext) -> Binding:
+        return _bind_loop(cls, params, at, needs_stop=cls.until_stop)
+
+    def run(self, ctx: Any, params: _LoopParams, **inputs: Any) -> dict[str, Any]:
+        limit = getattr(params, self.limit_param)
+        budget.check("iterations", limit, what=f"a loop with {self.limit_param} {limit:,}",
+                     change="loop over fewer, larger steps, or split the work over several loops")
+        return self._loop(ctx, params, inputs, None if self.until_stop else limit, limit)
 
     def _loop(self, ctx: Any, params: _LoopParams, inputs: dict[str, Any], count: int | None, limit: int) -> dict:
         body: LoopBody = ctx.binding
@@ -267,25 +281,13 @@ class _Loop(NodeType):
         return outputs
 
 
-def _check_count(count: int, what: str) -> None:
-    budget.check("iterations", count, what=f"a loop with {what} {count:,}",
-                 change="loop over fewer, larger steps, or split the work over several loops")
-
-
 @register
 class ForLoop(_Loop):
     type_id = "struct.for"
     title = "For loop"
     description = "Run the body N times (index i), with shift registers and outputs collected per iteration."
     Params = ForParams
-
-    @classmethod
-    def bind_graph(cls, params: ForParams, at: BindContext) -> Binding:
-        return _bind_loop(cls, params, at, needs_stop=False)
-
-    def run(self, ctx: Any, params: ForParams, **inputs: Any) -> dict[str, Any]:
-        _check_count(params.count, "count")
-        return self._loop(ctx, params, inputs, params.count, params.count)
+    limit_param = "count"
 
 
 @register
@@ -294,14 +296,8 @@ class WhileLoop(_Loop):
     title = "While loop"
     description = "Run the body until its stop output is true, at most max_iterations times, with shift registers."
     Params = WhileParams
-
-    @classmethod
-    def bind_graph(cls, params: WhileParams, at: BindContext) -> Binding:
-        return _bind_loop(cls, params, at, needs_stop=True)
-
-    def run(self, ctx: Any, params: WhileParams, **inputs: Any) -> dict[str, Any]:
-        _check_count(params.max_iterations, "max_iterations")
-        return self._loop(ctx, params, inputs, None, params.max_iterations)
+    until_stop = True
+    limit_param = "max_iterations"
 
 
 # ---------------------------------------------------------------- case

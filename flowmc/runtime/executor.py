@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 from pydantic import ValidationError
 
 from flowmc.digest import Undigestable, digest
@@ -83,6 +83,13 @@ class RunResult:
     def summary_of_jobs(self) -> dict[str, Any]:
         return {n: summarize(job) for n, job in self.jobs.items()}
 
+    def values_of(self, *port_types: str) -> list[tuple[str, str, Any]]:
+        """(node id, output, value) of every value produced on outputs of these port types, in run order
+        (``Plan.outputs_of``): e.g. the last Path a graph made is ``result.values_of("Path")[-1]``."""
+        plan = self.run.plan
+        return [(node_id, name, self.nodes[node_id].outputs[name]) for node_id, name in plan.outputs_of(*port_types)
+                if node_id in self.nodes and name in self.nodes[node_id].outputs]
+
     @property
     def errors(self) -> list[str]:
         return [r.error for r in self.nodes.values() if r.status == "failed" and r.error]
@@ -122,7 +129,8 @@ def summarize(value: Any) -> Any:
     """``value.summary()`` when it has one, plain scalars as they are, else the type name."""
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
-    if isinstance(value, np.generic):
+    np = sys.modules.get("numpy")  # no numpy value without numpy imported; `flowmc validate` imports none
+    if np is not None and isinstance(value, np.generic):
         return value.item()
     if callable(getattr(value, "summary", None)):
         return value.summary()

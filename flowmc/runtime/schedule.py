@@ -63,6 +63,12 @@ class Plan:
         node = self.nodes[node_id]
         return node.inputs, node.outputs
 
+    def outputs_of(self, *port_types: str) -> list[tuple[str, str]]:
+        """(node id, output) of every output port of these types, in run order (a node's in declared order):
+        the one way to find a graph's Path, Machine or motion, before a run or in its result."""
+        return [(node_id, name) for node_id in self.order if node_id in self.nodes
+                for name, port in self.nodes[node_id].outputs.items() if port.type in port_types]
+
     def downstream(self, node_id: str) -> set[str]:
         """Every node that depends on ``node_id``, directly or through others."""
         found: set[str] = set()

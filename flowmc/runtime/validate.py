@@ -14,11 +14,11 @@ structure (a loop's or case's bodies, from structure nodes).
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 from pydantic import BaseModel, ValidationError
 
 import flowmc.budget as budget
@@ -35,10 +35,13 @@ __all__ = ["BoundNode", "Checked", "check_graph", "value_matches"]
 
 def value_matches(port_type: str, value: Any) -> bool:
     """Scalar port types are checked; object types are trusted to their node's declaration."""
+    np = sys.modules.get("numpy")  # a numpy scalar exists only once numpy is imported: validating needs none
     if port_type == "Number":
-        return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+        if isinstance(value, (int, float)):
+            return not isinstance(value, bool)
+        return np is not None and isinstance(value, (np.integer, np.floating))
     if port_type == "Bool":
-        return isinstance(value, (bool, np.bool_))
+        return isinstance(value, bool) or (np is not None and isinstance(value, np.bool_))
     if port_type == "Text":
         return isinstance(value, str)
     return True

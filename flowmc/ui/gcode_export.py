@@ -22,14 +22,12 @@ def path_source(state: EditorState) -> tuple[str, str] | None:
     plan = state.plan()
     for _item, src in (v for k, v in plan.iface_outputs.items() if v[0].type == "Path"):
         return src
+    found = plan.outputs_of("Path")
     nodes = state.selected_nodes
-    order = ([nodes[0]] if len(nodes) == 1 else []) + list(reversed(plan.order))
-    for node_id in order:
-        if node_id in plan.nodes:
-            _ins, outs = plan.ports(node_id)
-            for name, port in outs.items():
-                if port.type == "Path":
-                    return node_id, name
+    for node_id in ([nodes[0]] if len(nodes) == 1 else []) + ([found[-1][0]] if found else []):
+        for source in found:
+            if source[0] == node_id:
+                return source
     return None
 
 

@@ -119,6 +119,9 @@ def is_log(value: Any) -> bool:
     return all(hasattr(value, a) for a in ("t", "position", "axes", "changes", "outcome"))
 
 
+SHOWN_TYPES = ("Path", "Trajectory", "Steps", "Machine", "Log")  # the port types a view shows
+
+
 def _kind(value: Any) -> str | None:
     if isinstance(value, Path):
         return "path"
@@ -158,13 +161,13 @@ def collect(result: Any, graph: Any = None, limit: int = 4) -> Shown:
     dropped = _superseded(result, graph)
     found: dict[str, list[tuple[str, Any]]] = {"path": [], "motion": [], "machine": [], "log": []}
     seen: set[str] = set()
-    for node_id in reversed(result.order):
-        for port, value in result.nodes[node_id].outputs.items():
-            kind, ref = _kind(value), f"{node_id}.{port}"
-            if kind is None or ref in dropped or value.digest() in seen:
-                continue
-            seen.add(value.digest())
-            found[kind].append((ref, value))
+    downstream_first = {node_id: -i for i, node_id in enumerate(result.order)}
+    for node_id, port, value in sorted(result.values_of(*SHOWN_TYPES), key=lambda v: downstream_first[v[0]]):
+        kind, ref = _kind(value), f"{node_id}.{port}"
+        if kind is None or ref in dropped or value.digest() in seen:
+            continue
+        seen.add(value.digest())
+        found[kind].append((ref, value))
     keep = {k: v[: limit if graph is not None else 1] for k, v in found.items()}
     shown = Shown(paths=[v for _, v in keep["path"]][::-1], trajectories=[v for _, v in keep["motion"]][::-1],
                   machine=keep["machine"][0][1] if keep["machine"] else None, logs=[v for _, v in keep["log"]][::-1])

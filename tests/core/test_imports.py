@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 CODE = """
 import sys
 import flowmc
@@ -43,7 +45,8 @@ VALIDATE = """
 import sys
 from flowmc.cli import main
 code = main(["validate", sys.argv[1]])
-heavy = ("scipy", "skimage", "viser", "networkx", "PIL", "serial", "dask", "flowmc.ui", "flowmc.sweep",
+heavy = ("numpy", "flowmc.motion.path", "scipy", "skimage", "viser", "networkx", "PIL", "serial", "dask",
+         "flowmc.ui", "flowmc.sweep",
          "flowmc.devices.sim", "flowmc.devices.grbl", "flowmc.devices.linuxcnc", "flowmc.devices.jobs",
          "flowmc.motion.gcode", "flowmc.nodes.gcode", "flowmc.nodes.basic")
 print(code, sorted({m for m in sys.modules for h in heavy if m == h or m.startswith(h + ".")}))
@@ -52,10 +55,23 @@ print(code, sorted({m for m in sys.modules for h in heavy if m == h or m.startsw
 
 def test_validate_starts_light(tmp_path):
     """Cold start (benchmarks/cold_start.py times it): ``flowmc validate`` imports only the node modules
-    of the types the graph uses, and nothing heavy (scipy, scikit-image, viser, networkx, device backends)."""
+    of the types the graph uses, and nothing heavy (numpy, the path types, scipy, scikit-image, viser, networkx,
+    device backends): validating reads params and ports, and node modules import their algorithms when they run."""
     from core_helpers import REPO
 
     graph = REPO / "graphs" / "thesis_3axis.flowmc.json"
     proc = subprocess.run([sys.executable, "-c", VALIDATE, str(graph)], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == "0 []"
+
+
+@pytest.mark.parametrize("name", ["arm_lookahead", "case_planner", "probe_branch", "wait_for_clamp"])
+def test_loops_cases_reports_and_planners_validate_without_numpy(name):
+    """The basic, structure, planning and device node modules hold params and ports; numpy comes when they run."""
+    from core_helpers import REPO
+
+    code = "import sys\nfrom flowmc.cli import main\nprint(main(['validate', sys.argv[1]]), 'numpy' in sys.modules)"
+    graph = REPO / "graphs" / f"{name}.flowmc.json"
+    proc = subprocess.run([sys.executable, "-c", code, str(graph)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == "0 False"

@@ -259,3 +259,25 @@ def test_a_node_that_reads_a_file_is_cached_while_the_file_is_unchanged(tmp_path
     assert not runtime.run(graph).ok  # a file gone is read again, and says so
     with pytest.raises(TypeError, match="reads names unknown param 'nope'"):
         registry.add(type("Bad", (registry.lookup("path.gcode_in"),), {"reads": ("nope",), "type_id": "test.bad"}))
+
+
+def test_values_of_finds_a_runs_paths_by_port_type_in_run_order():
+    """One way to find the Path (or Machine, motion) of a run: the CLI's compare, the editor's G-code export
+    and its 3D view all ask ``Plan.outputs_of`` / ``RunResult.values_of``."""
+    g = flowmc.GraphBuilder(title="paths")
+    line = g.add("path.polyline", id="line", points=[(0, 0, 0), (10, 0, 0)])
+    shift = g.add("path.translate", id="shift", dx=5.0)
+    plan = g.add("plan.lookahead", id="plan")
+    g.wire(line.path, shift.path)
+    g.wire(shift.path, plan.path)
+    g.add("machine", id="mach")
+    graph = g.build()
+    runtime = flowmc.Runtime()
+    assert runtime.plan(graph).outputs_of("Path") == [("line", "path"), ("shift", "path")]
+    result = runtime.run(graph)
+    paths = result.values_of("Path")
+    assert [(n, p) for n, p, _ in paths] == [("line", "path"), ("shift", "path")]
+    assert paths[-1][2] is result.output("shift", "path") and paths[-1][2].start.tolist() == [5.0, 0.0, 0.0]
+    assert [n for n, _, _ in result.values_of("Machine", "Trajectory")] == [
+        n for n in result.order if n in ("mach", "plan")]
+    assert result.values_of("Log") == []

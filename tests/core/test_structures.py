@@ -125,6 +125,14 @@ def test_moving_a_node_inside_a_body_does_not_change_the_fingerprint():
     assert moved.fingerprint_json() != graph.fingerprint_json()
 
 
+def _collecting(body, name, port_type, count, loop_id="loop"):
+    """A graph of one For loop running ``body`` ``count`` times; its output ``name``, collected, is the graph's."""
+    g = flowmc.GraphBuilder()
+    loop = g.add("struct.for", id=loop_id, count=count, indexed=[name], bodies={"body": body})
+    g.output(name, port_type, getattr(loop, name))
+    return g.build()
+
+
 def _counted_body():
     b = flowmc.GraphBuilder()
     c = b.add("test.counted", id="c")
@@ -134,10 +142,7 @@ def _counted_body():
 
 
 def test_iterations_of_a_pure_body_are_cached_by_content(reg):
-    g = flowmc.GraphBuilder()
-    loop = g.add("struct.for", id="loop", count=5, indexed=["x"], bodies={"body": _counted_body()})
-    g.output("x", "Table", loop.x)
-    graph = g.build()
+    graph = _collecting(_counted_body(), "x", "Table", 5)
     rt = flowmc.Runtime(reg)
     assert rt.run(graph).ok and RUNS == [0, 1, 2, 3, 4]
     graph.node("loop").params["count"] = 6  # one more iteration: only that one runs
@@ -174,12 +179,9 @@ def test_paths_are_joined_in_order_with_tool_up_rapids_between(reg):
     b.wire(step.result, move.dx)
     b.input("i", "Number", [step.a])
     b.output("part", "Path", move.path)
-    g = flowmc.GraphBuilder()
-    loop = g.add("struct.for", id="loop", count=3, indexed=["part"], bodies={"body": b.build()})
-    g.output("parts", "Path", loop.part)
-    result = flowmc.run(g.build(), registry=reg)
+    result = flowmc.run(_collecting(b.build(), "part", "Path", 3), registry=reg)
     assert result.ok, result.errors
-    path = result.outputs["parts"]
+    path = result.outputs["part"]
     assert len(path) == 3 * 4 + 2
     rapids = [s for s in path.segments if s.rapid]
     assert len(rapids) == 2 and not any(s.tool_down for s in rapids)
@@ -294,17 +296,8 @@ def test_only_structures_hold_bodies(reg):
 
 
 def test_nested_loops_announce_inner_iterations_by_path(reg):
-    inner = flowmc.GraphBuilder()
-    c = inner.add("test.counted", id="c")
-    inner.input("i", "Number", [c.x])
-    inner.output("x", "Number", c.x)
-    outer = flowmc.GraphBuilder()
-    loop = outer.add("struct.for", id="cols", count=3, indexed=["x"], bodies={"body": inner.build()})
-    outer.output("x", "Table", loop.x)
-    g = flowmc.GraphBuilder()
-    rows = g.add("struct.for", id="rows", count=2, indexed=["x"], bodies={"body": outer.build()})
-    g.output("x", "Table", rows.x)
-    result = flowmc.run(g.build(), registry=reg)
+    outer = _collecting(_counted_body(), "x", "Table", 3, loop_id="cols")
+    result = flowmc.run(_collecting(outer, "x", "Table", 2, loop_id="rows"), registry=reg)
     assert result.ok, result.errors
     table = result.outputs["x"]
     assert table.names == ("j", "i", "x")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import flowmc
-from browser_helpers import EditorPage, chromium, expected, wait_until
+from browser_helpers import EditorPage, expected, wait_until
 from editor_graphs import example_file
 from flowmc.ui import canvas_draw
 from flowmc.ui.app import Editor
@@ -19,17 +19,9 @@ pytestmark = pytest.mark.browser
 DONE = expected(canvas_draw.STATUS_COLORS["done"])
 
 
-@pytest.fixture(scope="module")
-def browser():
-    with chromium() as b:
-        yield b
-
-
 @pytest.fixture
-def editor(tmp_path):
-    ed = Editor(example_file(tmp_path), port=0)
-    yield ed
-    ed.close()
+def editor(tmp_path, open_editor):
+    return open_editor(example_file(tmp_path))
 
 
 def add_from_palette(ui: EditorPage, query: str, button: str) -> str:

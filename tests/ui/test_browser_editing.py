@@ -11,19 +11,13 @@ import re
 import numpy as np
 import pytest
 
-from browser_helpers import EditorPage, chromium, expected, wait_until
+from browser_helpers import EditorPage, expected, wait_until
 from editor_graphs import chain_file, example_file
 from flowmc.ui import arrange, canvas_draw, layout
 from flowmc.ui.app import Editor
 from flowmc.ui.examples import examples_dir
 
 pytestmark = pytest.mark.browser
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with chromium() as b:
-        yield b
 
 
 @pytest.fixture

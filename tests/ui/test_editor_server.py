@@ -23,10 +23,8 @@ from flowmc.ui.text import unescape_md
 
 
 @pytest.fixture
-def editor(tmp_path):
-    ed = Editor(example_file(tmp_path), port=0, extensions=False)
-    yield ed
-    ed.close()
+def editor(tmp_path, open_editor):
+    return open_editor(example_file(tmp_path), extensions=False)
 
 
 def click(editor, node_id, kind=None, port=None):

@@ -21,7 +21,6 @@ from websockets.sync.client import connect
 
 from browser_helpers import chromium, wait_until
 from editor_graphs import example_file
-from flowmc.ui.app import Editor
 from flowmc.ui.guard import Guard
 from flowmc.ui.viser_internals import update_allowed
 
@@ -29,10 +28,8 @@ PROTOCOL = f"viser-v{viser.__version__}"
 
 
 @pytest.fixture
-def editor(tmp_path):
-    ed = Editor(example_file(tmp_path), port=0, extensions=False)
-    yield ed
-    ed.close()
+def editor(tmp_path, open_editor):
+    return open_editor(example_file(tmp_path), extensions=False)
 
 
 def _port(editor):

@@ -10,8 +10,7 @@ from pathlib import Path
 import pytest
 
 import flowmc
-from browser_helpers import EditorPage, chromium, wait_until
-from flowmc.ui.app import Editor
+from browser_helpers import EditorPage, wait_until
 
 pytestmark = pytest.mark.browser
 
@@ -30,17 +29,9 @@ def _graph(folder: Path) -> Path:
     return path
 
 
-@pytest.fixture(scope="module")
-def browser():
-    with chromium() as b:
-        yield b
-
-
 @pytest.fixture
-def editor(tmp_path):
-    ed = Editor(_graph(tmp_path), port=0)
-    yield ed
-    ed.close()
+def editor(tmp_path, open_editor):
+    return open_editor(_graph(tmp_path))
 
 
 def _tab(ui: EditorPage, name: str) -> None:

@@ -9,7 +9,6 @@ import pytest
 import flowmc
 from flowmc.errors import GraphError
 from flowmc.ui import canvas_draw
-from flowmc.ui.app import Editor
 from flowmc.ui.text import unescape_md
 
 
@@ -29,10 +28,8 @@ def _line_graph(tmp_path):
 
 
 @pytest.fixture
-def editor(tmp_path):
-    ed = Editor(_line_graph(tmp_path), port=0)
-    yield ed
-    ed.close()
+def editor(tmp_path, open_editor):
+    return open_editor(_line_graph(tmp_path))
 
 
 def _is_text(handle) -> bool:

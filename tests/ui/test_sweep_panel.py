@@ -29,22 +29,18 @@ def arm_lookahead(check_max: float) -> flowmc.Graph:
 
 
 @pytest.fixture
-def editor(tmp_path):
+def editor(tmp_path, open_editor):
     flowmc.save(arm_lookahead(0.695), tmp_path / "arm_lookahead.flowmc.json")  # arm_weighted misses it
-    ed = Editor(tmp_path / "arm_lookahead.flowmc.json", port=0)
-    yield ed
-    ed.close()
+    return open_editor(tmp_path / "arm_lookahead.flowmc.json")
 
 
 @pytest.fixture
-def tol_editor(tmp_path):
+def tol_editor(tmp_path, open_editor):
     """arm_lookahead with a second front-panel control: the look-ahead tolerance."""
     graph = arm_lookahead(0.9)
     graph.interface.inputs.append(InterfaceInput(name="tol", type="Number", default=0.05, to=["lookahead.tolerance"]))
     flowmc.save(graph, tmp_path / "arm.flowmc.json")
-    ed = Editor(tmp_path / "arm.flowmc.json", port=0)
-    yield ed
-    ed.close()
+    return open_editor(tmp_path / "arm.flowmc.json")
 
 
 def test_suggested_values_come_from_the_control():
