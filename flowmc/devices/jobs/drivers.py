@@ -14,6 +14,12 @@ def driver_for(runner, card):
 
         return SimInstant(runner, card) if runner.pace == "instant" else SimStream(runner, card)
     from flowmc.devices.grbl import GrblCard
+    from flowmc.devices.linuxcnc.card import LinuxCNCCard
+
+    if isinstance(card, LinuxCNCCard) and runner.job.operation == "program":
+        from flowmc.devices.jobs.linuxcnc_driver import LinuxCNCDriver
+
+        return LinuxCNCDriver(runner, card)
     from flowmc.devices.jobs.card_driver import InstantDriver
 
     if isinstance(card, GrblCard) and runner.job.operation == "program":

@@ -46,7 +46,8 @@ class LinuxCNCRun:
     2 feed, 3 arc; program_line: (N,) line of the program being executed; dout (N, 4) bool,
     aout (N, 2) V, spindle_rpm (N,) signed; messages: what LinuxCNC told the operator on the way
     ((MSG, ...) comments; an error stops the run and raises instead); end_position: where
-    LinuxCNC reports the machine at the end; gcode: the program as run.
+    LinuxCNC reports the machine at the end; gcode: the program as run; outcome: "done", or
+    "aborted"/"estop" when a command ended the program early (the rows then end with the outputs safe).
     """
 
     samples: np.ndarray
@@ -59,6 +60,7 @@ class LinuxCNCRun:
     messages: tuple[str, ...]
     end_position: np.ndarray
     gcode: str
+    outcome: str = "done"
 
     @property
     def feed_time(self) -> float:
@@ -114,14 +116,14 @@ def _check_period(servo_period: float) -> None:
 
 
 def render_ini(machine: Machine, *, program: str, display: str, dir: Path, servo_period: float,
-               timeout: float, start: "StartState") -> str:
+               timeout: float, start: "StartState", keep_on: tuple[int, ...] = ()) -> str:
     """The simulator INI for this machine; ``program`` and ``display`` are absolute paths, ``dir`` the run directory."""
     _check_period(servo_period)
     fields = _axis_limits(machine, start.home if start.home is not None else home_position(machine))
     xyz = [a for a in machine.axes if a.name.upper() in ("X", "Y", "Z")]
     fields.update(
         DISPLAY=display, PROGRAM=program, EVENTS=str(dir / "events.jsonl"), RESULT=str(dir / "result.json"),
-        SAMPLES=str(dir / "samples.txt"),
+        SAMPLES=str(dir / "samples.txt"), COMMANDS=str(dir / "commands"), KEEP_ON=" ".join(map(str, keep_on)),
         TIMEOUT=repr(float(timeout)), SERVO_PERIOD_NS=str(round(servo_period * 1e9)),
         TRAJ_VMAX=repr(max(a.vmax for a in xyz)) if xyz else "1.0",
         TRAJ_AMAX=repr(max(a.amax for a in xyz)) if xyz else "1.0",
@@ -165,7 +167,9 @@ def _refusal(result: dict, gcode: str, name: str) -> GcodeError | LimitError:
 
 def run_program(gcode: str, machine: Machine | None = None, *, servo_period: float = SERVO_PERIOD,
                 timeout: float = 300.0, name: str = "program.ngc", start: StartState = StartState(),
-                on_progress: Callable[[int], None] | None = None, keep_dir: bool = False) -> LinuxCNCRun:
+                on_progress: Callable[[int], None] | None = None, keep_dir: bool = False,
+                on_event: Callable[[dict], None] | None = None,
+                commands: Callable[[], list[str]] | None = None, keep_on: tuple[int, ...] = ()) -> LinuxCNCRun:
     """Run G-code text on the simulated LinuxCNC machine with ``machine``'s X/Y/Z limits.
 
     The machine homes in place at ``start.home`` (default: 0 clipped into each axis's travel) and
@@ -174,6 +178,12 @@ def run_program(gcode: str, machine: Machine | None = None, *, servo_period: flo
     (``name:line``) for a program LinuxCNC refuses and
     LimitError (``name:line``) for one that would leave an axis's travel, DeviceError when LinuxCNC
     cannot run or does not finish; LinuxCNC is shut down either way.
+
+    While the program runs, ``commands()`` is asked every 20 ms for operator commands (``pause``,
+    ``resume``, ``abort``, ``estop``; see display.py), which LinuxCNC's task carries out; an abort or
+    e-stop leaves the spindle off and the outputs off but ``keep_on`` (1-based) and returns the run so
+    far with that ``outcome``. ``on_event(event)`` gets every event the display program writes
+    (state: holding/held/running/stopping/safe, position at 25 Hz, progress, messages).
     """
     machine = machine if machine is not None else Machine()
     _check_period(servo_period)
@@ -181,16 +191,23 @@ def run_program(gcode: str, machine: Machine | None = None, *, servo_period: flo
     def follow(event: dict) -> None:
         if on_progress is not None and event.get("kind") == "progress":
             on_progress(int(event["line"]))
+        if on_event is not None:
+            on_event(event)
 
     session = Session(keep=keep_dir)
+
+    def poll() -> None:
+        for command in commands() if commands is not None else ():
+            session.send(command)
+
     try:
         program = session.write("program.ngc", gcode)
         session.write("flowmc_sim.hal", (CONFIG / "flowmc_sim.hal").read_text())
         session.write("tool.tbl", (CONFIG / "tool.tbl").read_text())
         ini = session.write("flowmc_sim.ini", render_ini(
             machine, program=str(program), display=str(session.display_wrapper(HERE / "display.py")),
-            dir=session.dir, servo_period=servo_period, timeout=timeout, start=start))
-        session.run(ini, timeout + _STARTUP_S, follow)
+            dir=session.dir, servo_period=servo_period, timeout=timeout, start=start, keep_on=keep_on))
+        session.run(ini, timeout + _STARTUP_S, follow, poll)
         result_path = session.path("result.json")
         if not result_path.exists():
             tail = "\n".join(session.log.strip().splitlines()[-8:])
@@ -204,7 +221,7 @@ def run_program(gcode: str, machine: Machine | None = None, *, servo_period: flo
     if result.get("overruns"):
         raise DeviceError(f"the sampler lost {result['overruns']} samples (the machine was too busy to keep up)",
                           where="linuxcnc")
-    if result["status"] != "done":
+    if result["status"] not in ("done", "aborted", "estop"):
         raise _refusal(result, gcode, name)
     return _make_run(data, result, servo_period, gcode)
 
@@ -224,5 +241,5 @@ def _make_run(data: np.ndarray, result: dict, servo_period: float, gcode: str) -
         dout=d[:, 5:9].astype(bool), aout=d[:, 9:11].copy(), spindle_rpm=d[:, 11] * np.where(d[:, 12] > 0, 1.0, 0.0),
         servo_period=servo_period,
         messages=tuple(m["text"] for m in result.get("messages", [])),
-        end_position=np.array(result["position"], dtype=float), gcode=gcode,
+        end_position=np.array(result["position"], dtype=float), gcode=gcode, outcome=result["status"],
     )

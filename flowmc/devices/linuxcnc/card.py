@@ -138,12 +138,13 @@ class LinuxCNCCard(MotionCard):
         return {}  # the simulator has no wired inputs
 
     # ---------------------------------------------------------------- operations
-    def run_gcode(self, gcode: str, name: str = "program.ngc") -> DeviceLog:
-        """Run G-code as it is (starting where the card is) and return the log."""
+    def run_gcode(self, gcode: str, name: str = "program.ngc", **job) -> DeviceLog:
+        """Run G-code as it is (starting where the card is) and return the log. ``job``: run_program's
+        ``commands``, ``on_event`` and ``keep_on``, for a job that can be held, resumed and aborted."""
         start = StartState(home=self._pos.copy(), dout=tuple(self._dout), aout=tuple(self._aout),
                            spindle_rpm=self._spindle)
         run = run_program(gcode, self.machine, servo_period=self.servo_period, timeout=self.timeout, name=name,
-                          start=start)
+                          start=start, **job)
         return self._log(run)
 
     def run_path(self, path: Path, tolerance: float | None = None) -> DeviceLog:
@@ -156,10 +157,10 @@ class LinuxCNCCard(MotionCard):
         to_start = " ".join(f"{a}{_num(v)}" for a, v in zip(_XYZ, path.start))
         return self.run_gcode(f"%\nG21 G90\nG0 {to_start}\n{text}%\n", name="path.ngc")
 
-    def run(self, motion: Trajectory | Steps, signals: Signal | None = None, *, check: bool = True) -> DeviceLog:
+    def run(self, motion: Trajectory | Steps, signals: Signal | None = None, *, check: bool = True, **job) -> DeviceLog:
         if check:
             self.check(motion, signals)
-        return self.run_gcode(self._program(motion, signals), name="trajectory.ngc")
+        return self.run_gcode(self._program(motion, signals), name="trajectory.ngc", **job)
 
     def check_program(self, motion: Trajectory | Steps, signals: Signal | None = None):
         report = self.check(motion, signals)
@@ -251,4 +252,4 @@ class LinuxCNCCard(MotionCard):
         self._spindle = float(run.spindle_rpm[-1])
         events = tuple(Event("message", 0.0, "", text) for text in run.messages)
         return DeviceLog(self.spec, self.machine.names, run.servo_period, t, steps, position, None, changes,
-                         events, "done", self.state())
+                         events, run.outcome, self.state())

@@ -5,9 +5,17 @@ system Python (/usr/bin/python3), which has LinuxCNC's ``linuxcnc`` module; it
 never imports flowmc. What it needs comes from the INI's [FLOWMC] section. It
 switches the machine on, homes in place, restores the outputs and spindle of the
 previous operation, starts ``halsampler`` on the sampler FIFO, runs the program,
-and writes events (JSON lines: state, progress, errors) and a final result (JSON)
-for flowmc's backend to read. When it exits, the ``linuxcnc`` script shuts the
+and writes events (JSON lines: state, progress, position, errors) and a final result
+(JSON) for flowmc's backend to read. When it exits, the ``linuxcnc`` script shuts the
 whole machine down.
+
+The program runs in this process, so flowmc's commands come in through a file: while
+the program runs, each new line of [FLOWMC] COMMANDS is one command, given to the task
+as an operator would (``pause``: AUTO_PAUSE, a feed hold that decelerates along the
+path; ``resume``: AUTO_RESUME; ``abort``: the task's abort, a stop along the path within
+the acceleration limits that clears the rest, then spindle and outputs off; ``estop``:
+the machine's e-stop state at once, then the same outputs off; ``feed P``, ``rapid P``,
+``spindle P``: the overrides, P in %).
 """
 
 import json
@@ -46,6 +54,9 @@ class Run:
         self.messages = []
         self.sampler = None
         self.events = open(self.events_path, "a", buffering=1)
+        self.commands_path = ini.find("FLOWMC", "COMMANDS")
+        self.commands_offset = 0
+        self.keep_on = [int(v) for v in (ini.find("FLOWMC", "KEEP_ON") or "").split()]
 
     def emit(self, kind, **data):
         data.update(kind=kind, t=time.time())
@@ -125,6 +136,65 @@ class Run:
             and all(abs(a - b) < 1e-9 for a, b in zip(s.aout, self.aout))
             and abs(s.spindle[0]["speed"] - self.spindle_rpm) < 1e-6), 10.0)
 
+    def take_commands(self):
+        """New lines of the command file (complete lines only)."""
+        try:
+            with open(self.commands_path) as f:
+                f.seek(self.commands_offset)
+                chunk = f.read()
+        except OSError:
+            return []
+        complete = chunk[: chunk.rfind("\n") + 1]
+        self.commands_offset += len(complete.encode())
+        return [line.split() for line in complete.splitlines() if line.strip()]
+
+    def operator(self, name, *value):
+        """One operator command while the program runs; returns how the run ends ("aborted"/"estop") or None."""
+        lc, c, s = self.lc, self.command, self.stat
+        s.poll()
+        self.emit("message", error=False, text=f"{' '.join([name, *value])} at line {s.motion_line}")
+        if name in ("feed", "rapid", "spindle"):  # overrides, in %
+            scale = float(value[0]) / 100.0
+            {"feed": c.feedrate, "rapid": c.rapidrate, "spindle": c.spindleoverride}[name](scale)
+            return None
+        if name == "pause" and not s.paused:
+            c.auto(lc.AUTO_PAUSE)
+            self.emit("state", state="holding", line=s.motion_line)
+        elif name == "resume" and s.paused:
+            c.auto(lc.AUTO_RESUME)
+            self.emit("state", state="running", line=s.motion_line)
+        elif name == "abort":
+            self.emit("state", state="stopping", line=s.motion_line)
+            c.abort()
+            self.wait("stopping", lambda st: st.current_vel == 0.0 and st.exec_state == lc.EXEC_DONE, 10.0)
+            self.make_safe()
+            return "aborted"
+        elif name == "estop":
+            c.state(lc.STATE_ESTOP)
+            self.wait("the e-stop", lambda st: st.task_state == lc.STATE_ESTOP, 10.0)
+            self.make_safe()
+            return "estop"
+        return None
+
+    def make_safe(self):
+        """Spindle off, analog outputs 0 V, digital outputs off but the kept ones; waits until HAL shows it."""
+        lc, c = self.lc, self.command
+        self.stat.poll()
+        if self.stat.task_state == lc.STATE_ESTOP:  # motion's outputs still take commands once reset and on
+            c.state(lc.STATE_ESTOP_RESET)
+            c.state(lc.STATE_ON)
+            self.wait("switching on after the e-stop", lambda st: st.task_state == lc.STATE_ON, 10.0)
+        c.mode(lc.MODE_MANUAL)
+        c.wait_complete(5.0)
+        c.spindle(lc.SPINDLE_OFF)
+        for i in range(len(self.dout)):
+            c.set_digital_output(i, int(i + 1 in self.keep_on))
+        for i in range(len(self.aout)):
+            c.set_analog_output(i, 0.0)
+        self.wait("making the outputs safe", lambda st: st.spindle[0]["speed"] == 0.0 and not any(
+            st.dout[i] for i in range(len(self.dout)) if i + 1 not in self.keep_on), 10.0)
+        self.emit("state", state="safe")
+
     def run_program(self):
         lc, c = self.lc, self.command
         c.program_open(self.program)
@@ -132,26 +202,48 @@ class Run:
         if self.poll_errors():
             raise RuntimeError("LinuxCNC refused the program")
         c.auto(lc.AUTO_RUN, 0)
-        c.wait_complete(10.0)  # the task has taken the command: its state below is the run's
+        # Not wait_complete(): the task answers AUTO_RUN only once the program has ended. Wait until
+        # the interpreter runs (a short program may already be over; the loop below sees that).
+        deadline = time.time() + 1.0
+        while time.time() < deadline:
+            self.stat.poll()
+            if self.stat.interp_state != lc.INTERP_IDLE:
+                break
+            time.sleep(0.005)
         self.emit("state", state="running")
         started = time.time()
         seen_busy = False
         last_line = -1
+        last_position = 0.0
+        held = False
         while True:
             time.sleep(0.01)
+            for words in self.take_commands():
+                ended = self.operator(*words)
+                if ended:
+                    return ended
             self.stat.poll()
             s = self.stat
             if self.poll_errors():
                 raise RuntimeError("LinuxCNC refused the program")
+            if s.paused and s.current_vel == 0.0 and not held:
+                self.emit("state", state="held", line=s.motion_line, position=list(s.position[:3]))
+            held = bool(s.paused and s.current_vel == 0.0)
+            if time.time() - last_position >= 0.04:  # 25 Hz position readout
+                last_position = time.time()
+                self.emit("position", position=list(s.position[:3]), line=s.motion_line,
+                          velocity=s.current_vel, paused=bool(s.paused))
+            if s.paused:
+                continue  # held on the path: not the program's end
             busy = s.interp_state != lc.INTERP_IDLE or s.queue > 0 or not s.inpos
             seen_busy = seen_busy or busy
             if s.motion_line != last_line:
                 last_line = s.motion_line
                 self.emit("progress", line=s.motion_line, read_line=s.read_line)
             if seen_busy and not busy and s.exec_state == lc.EXEC_DONE:
-                return
+                return "done"
             if not seen_busy and time.time() - started > 2.0:
-                return  # a program without motion ends before we see it busy
+                return "done"  # a program without motion ends before we see it busy
             if time.time() - started > self.timeout:
                 raise TimeoutError(f"the program did not finish within {self.timeout:g} s")
 
@@ -171,9 +263,8 @@ class Run:
         try:
             self.machine_on()
             self.start_sampler()
-            self.run_program()
+            result["status"] = self.run_program()
             time.sleep(self.settle)
-            result["status"] = "done"
         except TimeoutError as exc:
             result["status"] = "timeout"
             result["errors"].append({"text": str(exc)})
@@ -185,11 +276,12 @@ class Run:
             result["messages"] = self.messages
             # On success the record ends as the program left the machine; after a failure the
             # abort (motion stopping, outputs as they were) is recorded too.
-            if result["status"] != "done":
+            ended = result["status"] in ("done", "aborted", "estop")
+            if not ended:
                 self.stop_machine()
             if self.sampler is not None:
                 result["overruns"] = self.stop_sampler()
-            if result["status"] == "done":
+            if ended:
                 self.stop_machine()
             tmp = self.result_path + ".part"
             with open(tmp, "w") as f:

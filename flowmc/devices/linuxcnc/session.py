@@ -145,8 +145,11 @@ class Session:
 
     # ------------------------------------------------------------------ run
 
-    def run(self, ini: Path, timeout: float, on_event: Callable[[dict], None] | None = None) -> None:
+    def run(self, ini: Path, timeout: float, on_event: Callable[[dict], None] | None = None,
+            on_poll: Callable[[], None] | None = None) -> None:
         """Start LinuxCNC, follow its events, and return once every process of ours has ended.
+
+        ``on_poll()`` is called every 20 ms meanwhile (to ``send`` commands to the display program).
 
         ``timeout`` (s) covers start-up, the program and shut-down. Past it, or on any error here,
         the session is torn down (display first, so LinuxCNC shuts itself down; then SIGKILL) and
@@ -157,11 +160,16 @@ class Session:
                 raise DeviceError(f"another LinuxCNC session is running ({LINUXCNC_LOCK} exists; remove it if "
                                   "no LinuxCNC is running)", where="linuxcnc")
             try:
-                self._run(ini, self._environment(), timeout, on_event)
+                self._run(ini, self._environment(), timeout, on_event, on_poll)
             finally:
                 self._teardown()
 
-    def _run(self, ini: Path, env: dict[str, str], timeout: float, on_event) -> None:
+    def send(self, command: str) -> None:
+        """Append one command line to the run's ``commands`` file, which the display program follows."""
+        with open(self.path("commands"), "a") as f:
+            f.write(command + "\n")
+
+    def _run(self, ini: Path, env: dict[str, str], timeout: float, on_event, on_poll) -> None:
         log = open(self.path("linuxcnc.log"), "w")
         try:
             proc = subprocess.Popen(["linuxcnc", "-r", str(ini)], cwd=self.dir, env=env,
@@ -186,6 +194,8 @@ class Session:
                         on_event(json.loads(line))
             if done:
                 return
+            if on_poll is not None:
+                on_poll()
             if time.monotonic() > deadline:
                 raise DeviceError(f"LinuxCNC did not finish within {timeout:g} s; it was shut down",
                                   where="linuxcnc")
