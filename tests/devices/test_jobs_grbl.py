@@ -13,6 +13,8 @@ import flowmc
 from flowmc.devices.jobs import Job, JobRunner
 from flowmc.devices.jobs.grbl_driver import override_bytes
 from flowmc.motion.machine import Machine
+from job_waits import quiet as _quiet
+from job_waits import wait_until as _wait
 
 ACCEL = 200.0  # mm/s^2, the simulator's
 
@@ -37,22 +39,6 @@ def _start(grbl_sim):
     thread = threading.Thread(target=lambda: _quiet(runner.run), daemon=True)
     thread.start()
     return sim, runner, ticks
-
-
-def _quiet(run):
-    try:
-        run()
-    except flowmc.FlowmcError:
-        pass
-
-
-def _wait(check, timeout=30.0, what="condition"):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if check():
-            return
-        time.sleep(0.01)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def test_override_bytes_step_from_100_percent():

@@ -12,9 +12,15 @@ import numpy as np
 import pytest
 
 from flowmc.devices.jobs import Job, JobRunner
-from flowmc.errors import FlowmcError
 from flowmc.motion.trajectory import Signal, Trajectory
+from job_waits import quiet as _quiet
+from job_waits import wait_until
 from linuxcnc_programs import live_linuxcnc_processes, machine
+
+
+def _wait(check, timeout=300.0, what="condition"):  # long: another session may hold the machine
+    wait_until(check, timeout, what)
+
 
 pytestmark = pytest.mark.linuxcnc
 
@@ -42,22 +48,6 @@ def _start():
     runner.subscribe(lambda e: ticks.append((time.monotonic(), e.status)) if e.kind == "tick" else None)
     threading.Thread(target=lambda: _quiet(runner.run), daemon=True).start()
     return runner, ticks
-
-
-def _quiet(run):
-    try:
-        run()
-    except FlowmcError:
-        pass
-
-
-def _wait(check, timeout=300.0, what="condition"):  # long: another session may hold the machine
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if check():
-            return
-        time.sleep(0.01)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def _x(ticks):
