@@ -122,3 +122,21 @@ def test_feed_override_halves_the_speed_for_the_rest_of_the_job():
     late = (log.position[1:, 0] > 15.0) & (log.position[1:, 0] < LENGTH - 1.0) & moving
     np.testing.assert_allclose(v[late], SPEED / 2, rtol=1e-3)  # the rest at 5 mm/s
     assert not live_linuxcnc_processes()
+
+
+def test_a_hold_longer_than_the_cards_timeout_is_not_a_fault(monkeypatch):
+    """The timeout guards a LinuxCNC that hangs, not an operator who holds: held time does not count."""
+    from flowmc.devices import backends
+    from flowmc.devices.linuxcnc.card import LinuxCNCCard
+
+    timeout = 5.0  # the 3 s program and its start-up fit; the 3 s program plus a 4 s hold does not
+    monkeypatch.setitem(backends._BACKENDS, "linuxcnc",
+                        lambda argument, machine, options, **kw: LinuxCNCCard(machine, timeout=timeout, **kw))
+    runner, ticks = _start()
+    _hold_at(runner, ticks, 8.0)
+    time.sleep(timeout - 1.0)  # held for the 1 s of _hold_at plus this: 5 s in all
+    runner.resume()
+    assert runner.wait(60.0)
+    assert runner.state == "done", runner.message
+    np.testing.assert_allclose(runner.log.end_position, [LENGTH, 0.0, 0.0], atol=1e-9)
+    assert not live_linuxcnc_processes()

@@ -216,8 +216,13 @@ class Run:
         last_line = -1
         last_position = 0.0
         held = False
+        last_loop = time.time()
         while True:
             time.sleep(0.01)
+            now = time.time()
+            if self.stat.paused:
+                started += now - last_loop  # time spent held does not count against the timeout
+            last_loop = now
             for words in self.take_commands():
                 ended = self.operator(*words)
                 if ended:

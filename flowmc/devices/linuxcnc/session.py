@@ -151,7 +151,8 @@ class Session:
 
         ``on_poll()`` is called every 20 ms meanwhile (to ``send`` commands to the display program).
 
-        ``timeout`` (s) covers start-up, the program and shut-down. Past it, or on any error here,
+        ``timeout`` (s) covers start-up, the program and shut-down, but not the time the program is
+        held (paused, as the display program's events say). Past it, or on any error here,
         the session is torn down (display first, so LinuxCNC shuts itself down; then SIGKILL) and
         DeviceError raised.
         """
@@ -181,7 +182,12 @@ class Session:
         deadline = time.monotonic() + timeout
         events = self.path("events.jsonl")
         offset = 0
+        paused, last_poll = False, time.monotonic()
         while True:
+            now = time.monotonic()
+            if paused:
+                deadline += now - last_poll  # a held program: the operator's time, not LinuxCNC's
+            last_poll = now
             done = proc.poll() is not None
             if events.exists():
                 with open(events) as f:
@@ -190,8 +196,10 @@ class Session:
                 complete = chunk[: chunk.rfind("\n") + 1]
                 offset += len(complete.encode())
                 for line in complete.splitlines():
+                    event = json.loads(line)
+                    paused = bool(event.get("paused", event.get("state") == "held" or paused))
                     if on_event is not None:
-                        on_event(json.loads(line))
+                        on_event(event)
             if done:
                 return
             if on_poll is not None:
