@@ -9,7 +9,10 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 if TYPE_CHECKING:
     import numpy as np  # imported where used: a graph's params validate without numpy
 
-__all__ = ["Axis", "Machine", "default_machine"]
+__all__ = ["RAPID_FEED", "Axis", "Machine", "default_machine"]
+
+#: Feed given to G0 moves (mm/s) when the machine names none: G-code leaves the rapid rate to the machine.
+RAPID_FEED = 200.0
 
 
 class Axis(BaseModel):

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from flowmc.errors import GcodeError
-from flowmc.motion.gcode import RAPID_FEED, GcodeOptions, ToolTable, interpret, interpret_file, read_var_file
-from flowmc.motion.gcode_write import path_to_gcode, write_gcode
-from flowmc.motion.path import Path
+from flowmc.motion.machine import RAPID_FEED
 from flowmc.registry import In, NodeType, Out, register
+
+if TYPE_CHECKING:
+    from flowmc.motion.path import Path
 
 _MM = {"unit": "mm"}
 _UNITS = {"mm": 1.0, "inch": 25.4}
@@ -58,6 +59,8 @@ class GcodeIn(NodeType):
                                        "coordinates, mm and mm/s"),)
 
     def run(self, ctx, params: GcodeInParams):
+        from flowmc.motion.gcode import GcodeOptions, ToolTable, interpret, interpret_file, read_var_file
+
         units = _UNITS[params.machine_units]
         tools = None
         if params.tool_table:
@@ -115,6 +118,8 @@ class GcodeOut(NodeType):
     outputs = (Out("text", "Text", doc="The G-code program"),)
 
     def run(self, ctx, params: GcodeOutParams, path: Path):
+        from flowmc.motion.gcode_write import path_to_gcode, write_gcode
+
         options: dict[str, Any] = dict(decimals=params.decimals, blend_tolerance=params.blend_tolerance,
                                        chord_tolerance=params.chord_tolerance)
         if not params.file:

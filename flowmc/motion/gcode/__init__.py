@@ -36,13 +36,12 @@ from flowmc.motion.gcode.interp import GcodeOptions, Interpreter
 from flowmc.motion.gcode.params import format_var_file, read_var_file
 from flowmc.motion.gcode.program import read_program_file
 from flowmc.motion.gcode.tools import Tool, ToolTable, parse_tool_table
+from flowmc.motion.machine import RAPID_FEED
 from flowmc.motion.path import Path
 
 __all__ = ["RAPID_FEED", "GcodeOptions", "GcodeResult", "Tool", "ToolTable", "parse_tool_table", "read_var_file",
            "format_var_file", "interpret", "interpret_file", "parse_gcode", "read_gcode"]
 
-#: Feed given to G0 moves (mm/s): G-code leaves the rapid rate to the machine.
-RAPID_FEED = 200.0
 
 
 @dataclass(frozen=True)
