@@ -12,6 +12,7 @@ import pytest
 import flowmc
 from flowmc.devices.jobs import Job, JobRunner
 from flowmc.devices.jobs.grbl_driver import override_bytes
+from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 from job_waits import quiet as _quiet
 from job_waits import wait_until as _wait
@@ -110,3 +111,16 @@ def test_estop_resets_at_once_and_grbl_reports_the_lost_position(grbl_sim):
     assert runner.state == "aborted" and runner.log.outcome == "estop"
     assert sim.alarm == 3  # reset while moving: GRBL's alarm 3, locked until $X or homing
     assert not sim.model.busy and sim.spindle_dir == 5
+
+
+def test_a_start_mid_program_is_refused_before_anything_moves(grbl_sim):
+    """GRBL does not rebuild the state mid-program yet: streaming the whole program instead would be
+    motion nobody asked for, so the job faults at Start, naming the segment, and the board sees no line."""
+    sim = grbl_sim(motion=True, accel=ACCEL)
+    runner = JobRunner(Job(f"grbl:{sim.port}", Machine(period=0.001), "program", _program(), name="plotter"),
+                       start_at=1)
+    with pytest.raises(DeviceError, match=r"starting at segment 2.*nothing was moved") as err:
+        runner.run()
+    assert err.value.where == "plotter" and runner.state == "faulted"
+    assert sim.model.position == [0.0, 0.0, 0.0]
+    assert not any(b == ord("G") for _, b in sim.bytes_seen)  # no G-code line reached the board

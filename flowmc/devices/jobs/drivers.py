@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from flowmc.errors import DeviceError
+
 __all__ = ["driver_for"]
 
 
@@ -13,6 +15,12 @@ def driver_for(runner, card):
         from flowmc.devices.jobs.sim_driver import SimInstant, SimStream
 
         return SimInstant(runner, card) if runner.pace == "instant" else SimStream(runner, card)
+    if runner.start_at is not None:
+        # Only the simulated card rebuilds the machine state mid-program; running the whole program
+        # instead would be motion nobody asked for.
+        raise DeviceError(f"starting at {runner.job.where(runner.start_at)} is not supported on "
+                          f"'{runner.job.device}' yet: nothing was moved; start the job from its beginning, "
+                          "or run it on the simulated card", where=runner.job.name or "job")
     from flowmc.devices.grbl import GrblCard
     from flowmc.devices.linuxcnc.card import LinuxCNCCard
 
