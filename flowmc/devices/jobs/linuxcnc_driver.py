@@ -8,7 +8,7 @@ e-stop state; after either the spindle and the digital outputs (but the kept one
 and DA set to 0 V. LinuxCNC's state comes back as events: ``held`` once paused at rest, a position
 every 40 ms (each a job tick), the program line. Feed, rapid and spindle overrides are LinuxCNC's own
 (``feedrate``, ``rapidrate``, ``spindleoverride``: the planner re-times the rest within its limits).
-Single block and the optional stop are not passed on yet: they are ignored with a message.
+Program stops and single block are not passed on yet: a job with them is refused at Start (drivers.py).
 """
 
 from __future__ import annotations
