@@ -1,4 +1,5 @@
-"""A program job on the LinuxCNC simulator: hold, resume, stop and e-stop through LinuxCNC's own task.
+"""A program job on the LinuxCNC simulator: hold, resume, stop, e-stop, program stops and single block
+through LinuxCNC's own task.
 
 The program runs inside LinuxCNC's display program (display.py), so the runner's commands go to it
 through the run's command file, every 20 ms: feed hold is the task's AUTO_PAUSE (the trajectory
@@ -8,12 +9,29 @@ e-stop state; after either the spindle and the digital outputs (but the kept one
 and DA set to 0 V. LinuxCNC's state comes back as events: ``held`` once paused at rest, a position
 every 40 ms (each a job tick), the program line. Feed, rapid and spindle overrides are LinuxCNC's own
 (``feedrate``, ``rapidrate``, ``spindleoverride``: the planner re-times the rest within its limits).
-Program stops and single block are not passed on yet: a job with them is refused at Start (drivers.py).
+
+The program's operator stops (``pauses``) go into LinuxCNC's program after the move to their setpoint
+row: M1 as M1, which LinuxCNC stops on only while its optional stop is on (set at Start and by the
+job's optional-stop switch, as LinuxCNC checks it on reaching each M1); M0, M60 and M6 as M0 (this
+machine's tool changer answers at once, so LinuxCNC's own M6 would not stop: the M0 is what waits for
+the operator, and the job's message names the tool to load). Single block puts an M0 at every block
+end (the first setpoint of each new segment), so LinuxCNC's queue runs empty and the machine rests
+exactly there; those marks are in the program only when the job starts with single block on (each
+brings the motion to rest, so a job without single block has none). Switched off mid-job, the job
+resumes on its own at the marks still ahead; switched on in a job started without it, the job feeds
+hold as it enters the next segment and says so (LinuxCNC cannot stop where its program has no stop).
+A tick's place is the setpoint row of LinuxCNC's motion line: the segment and G-code line of the
+user's program, progress along the rows, and time left from the plan's times at the feed override.
 """
 
 from __future__ import annotations
 
-from flowmc.devices.jobs.job import positions_of
+from dataclasses import dataclass
+
+import numpy as np
+
+from flowmc.devices.jobs.job import gcode_line, positions_of
+from flowmc.devices.jobs.pauses import Pause, program_pauses
 from flowmc.devices.log import DeviceLog, Event
 
 __all__ = ["LinuxCNCDriver"]
@@ -24,59 +42,197 @@ _SENT = {"hold": ("pause", ("running",), "holding", "feed hold"),
          "estop": ("estop", ("running", "holding", "held", "stopping"), "stopping", "e-stop")}
 
 
+@dataclass(frozen=True)
+class _Stop:
+    """One stop line of LinuxCNC's program: its line number, and the program stop or block end it is."""
+
+    line: int
+    pause: Pause | None = None  # None: a single-block mark
+    ended: int = -1  # a mark: the segment that ends there
+
+
 class LinuxCNCDriver:
     def __init__(self, runner, card):
         self.runner, self.card, self.job = runner, card, runner.job
-        self.line = 0
+        self.row = 0
         self.position: tuple[float, ...] = positions_of(card.position())
         self.notes: list[Event] = []
+        self.sent: list[str] = []  # commands of the driver's own (a resume past a mark)
+        self.optional_stop = runner.status.optional_stop
+        self.single_block = runner.status.single_block
+        self.feed = 100.0
+        self.paused: Pause | None = None
+        self.next_stop = 0
+        self.stops: list[_Stop] = []
+        self.seg = np.zeros(1, dtype=np.int64)
+        self.line_rows = np.zeros(1, dtype=np.int64)
+        self.period = 0.0
+        self.sb_from: int | None = None  # single block switched on without marks: the segment it was in
 
-    def _cols(self, xyz) -> tuple[float, ...]:
-        return positions_of([xyz["XYZ".index(a.upper())] for a in self.job.machine.names])
+    # ------------------------------------------------------------------ the program
+    def _program(self) -> str:
+        """LinuxCNC's program with the job's stops, and the tables that read LinuxCNC's lines back."""
+        job, card, runner = self.job, self.card, self.runner
+        motion = job.motion
+        positions, self.period, _axes = card.setpoints(motion)
+        n = len(positions)
+        last = max(n - 1, 1)
+        seg = np.asarray(motion.segment if motion.segment is not None else np.zeros(n, dtype=np.int64))
+        self.seg = seg if len(seg) == n else np.concatenate([seg[:1], seg])[:n]  # Steps: origin row first
+        merged = motion.signals.merged(job.signals)
+        rows = np.clip(np.ceil(np.asarray(merged.t) / self.period - 1e-9).astype(int), 1, last)
+        own = rows[:len(motion.signals)]
+        sorted_rows = np.sort(rows)
+        planned: list[tuple[int, int, str, Pause | None, int]] = []
+        for row, place, pause in program_pauses(motion, self.seg, sorted_rows.tolist(), own):
+            if row >= n - 1:
+                runner.emit("log", f"{pause.describe().split(';')[0]}: the program ends there")
+                continue
+            row = max(row, 1)
+            before = place - int(np.searchsorted(sorted_rows, row, side="left"))
+            planned.append((row, before, "M1" if pause.event.kind == "optional_pause" else "M0", pause, -1))
+        if self.single_block:
+            firm = {row for row, _b, code, _p, _e in planned if code == "M0"}
+            for b in np.flatnonzero(np.diff(self.seg) != 0) + 1:
+                if 1 <= b < n - 1 and int(b) not in firm:
+                    planned.append((int(b), 0, "M0", None, int(self.seg[b - 1])))
+        planned.sort(key=lambda p: (p[0], p[1]))
+        lines, self.line_rows = card.program_lines(motion, job.signals, [(r, b, c) for r, b, c, _p, _e in planned])
+        numbers = [i for i, text in enumerate(lines, 1) if text in ("M0", "M1")]
+        self.stops = [_Stop(number, pause, ended) for number, (_r, _b, _c, pause, ended) in zip(numbers, planned)]
+        return "\n".join(lines) + "\n"
 
+    # ------------------------------------------------------------------ where the job is
+    def _segment(self) -> int | None:
+        seg = int(self.seg[min(self.row, len(self.seg) - 1)])
+        return None if seg < 0 else seg
+
+    def _where(self) -> str:
+        return self.paused.where if self.paused is not None else self.job.where(self._segment())
+
+    def _tick(self, **extra) -> None:
+        job, n = self.job, len(self.seg)
+        seg = self._segment()
+        names = job.segment_names
+        where, line = job.where(seg), (gcode_line(names[seg]) if seg is not None and seg < len(names) else None)
+        if self.paused is not None:  # stopped for the operator: the stop's own place and line (the M0, the M6)
+            seg, where, line = self.paused.event.segment, self.paused.where, self.paused.line
+        progress = self.row / (n - 1) if n > 1 else 1.0
+        left = max(job.duration - self.row * self.period, 0.0) * 100.0 / self.feed
+        self.runner.emit("tick", **{"commanded": self.position, "actual": None, "segment": seg, "where": where,
+                                    "line": line, "progress": progress, "time_left": left, **extra})
+
+    # ------------------------------------------------------------------ commands and events
     def commands(self) -> list[str]:
-        out = []
-        for name, value in self.runner.take_commands():
+        out, self.sent = self.sent, []
+        runner = self.runner
+        for name, value in runner.take_commands():
             if name in ("feed", "rapid", "spindle"):  # checked by the runner: feed 10-200, rapid 25/50/100 %
                 out.append(f"{name} {float(value):g}")
-                self.runner.emit("log", f"{name} override {value:g} %", **{name: float(value)})
-                continue
-            if name not in _SENT:
-                self.runner.emit("log", f"{name} is not passed to LinuxCNC yet: ignored")
-                continue
-            sent, when, state, said = _SENT[name]
-            if self.runner.state in when:
-                out.append(sent)
-                self.runner.set_state(state, f"{said} at line {self.line}")
-                self.notes.append(Event("job", 0.0, "", f"{name} at line {self.line}"))
+                if name == "feed":
+                    self.feed = float(value)
+                runner.emit("log", f"{name} override {value:g} %", **{name: float(value)})
+            elif name == "optional_stop":
+                self.optional_stop = bool(value)
+                out.append(f"optional_stop {int(self.optional_stop)}")
+                runner.emit("log", f"optional stop (M1) {'on' if value else 'off'}", optional_stop=bool(value))
+            elif name == "single_block":
+                self._single_block(bool(value))
+            elif name in _SENT:
+                sent, when, state, said = _SENT[name]
+                if runner.state in when:
+                    out.append(sent)
+                    where = self._where()
+                    if name == "resume":
+                        self.paused = None
+                    runner.set_state(state, f"{said} at {where}")
+                    self.notes.append(Event("job", 0.0, "", f"{name} at {where}"))
+            else:
+                runner.emit("log", f"{name} is not passed to LinuxCNC: ignored")
         return out
+
+    def _single_block(self, on: bool) -> None:
+        self.single_block = on
+        marks = any(s.pause is None for s in self.stops)
+        said = f"single block {'on' if on else 'off'}"
+        if on and not marks:
+            self.sb_from = self._segment() if self._segment() is not None else -1
+            said += (": this job started without it, so LinuxCNC's program has no stops at block ends; the job "
+                     "feeds hold as it enters the next segment")
+        elif not on:
+            self.sb_from = None
+        self.runner.emit("log", said, single_block=on)
+        self.notes.append(Event("job", 0.0, "", f"{said} at {self._where()}"))
+
+    def _stopped(self, line: int) -> None:
+        """LinuxCNC paused by itself (its motion line ``line``): the program stop or block end it is on."""
+        runner, stop = self.runner, None
+        while stop is None and self.next_stop < len(self.stops):
+            ahead = self.stops[self.next_stop]
+            self.next_stop += 1
+            if ahead.line > line and (ahead.pause is None or ahead.pause.stops(self.optional_stop)):
+                stop = ahead
+        if stop is None:
+            runner.set_state("held", f"LinuxCNC paused at {self._where()}")
+            return
+        if stop.pause is None:
+            where = self.job.where(stop.ended)
+            if self.single_block:
+                runner.set_state("held", f"single block: held at the end of {where}")
+            else:
+                self.sent.append("resume")
+                runner.emit("log", f"single block is off: runs on past the end of {where}")
+            return
+        self.paused = stop.pause
+        text = stop.pause.describe()
+        self.notes.append(Event("pause", 0.0, "", text))
+        self._tick()
+        runner.set_state("held", text)
 
     def on_event(self, event: dict) -> None:
         runner, kind = self.runner, event.get("kind")
         if kind in ("position", "progress", "state") and "line" in event:
-            self.line = int(event["line"])
+            line = int(event["line"])
+            self.row = int(self.line_rows[min(max(line, 0), len(self.line_rows) - 1)])
         if "position" in event:
             self.position = self._cols(event["position"])
         if kind == "position":
-            runner.emit("tick", commanded=self.position, actual=None, line=self.line, where=f"line {self.line}")
-        elif kind == "state" and event.get("state") == "held" and runner.state == "holding":
-            runner.set_state("held", f"held at line {self.line}")
+            self._tick()
+            self._single_block_without_marks()
+        elif kind == "state" and event.get("state") == "held":
+            if runner.state == "holding":
+                said = "single block: held after the end of" if self.sb_from is not None else "held at"
+                runner.set_state("held", f"{said} {self._where()}")
+            elif runner.state == "running":
+                self._stopped(int(event.get("line", 0)))
         elif kind == "state" and event.get("state") == "safe":
             runner.emit("log", f"outputs left safe: {self.job.safe.describe()}")
+
+    def _single_block_without_marks(self) -> None:
+        seg = self._segment()
+        if (self.sb_from is not None and self.single_block and self.runner.state == "running"
+                and seg is not None and seg != self.sb_from):
+            self.sb_from = seg
+            self.sent.append("pause")
+            self.runner.set_state("holding", f"single block: feed hold on entering {self.job.where(seg)}")
+
+    def _cols(self, xyz) -> tuple[float, ...]:
+        return positions_of([xyz["XYZ".index(a.upper())] for a in self.job.machine.names])
 
     def run(self) -> DeviceLog:
         runner = self.runner
         runner.emit("tick", commanded=self.position, actual=None)
-        log = self.card.run(self.job.motion, self.job.signals, check=False, commands=self.commands,
-                            on_event=self.on_event, keep_on=tuple(self.job.safe.keep_on))
+        gcode = self._program()
+        log = self.card.run_gcode(gcode, name="trajectory.ngc", commands=self.commands, on_event=self.on_event,
+                                  keep_on=tuple(self.job.safe.keep_on), optional_stop=self.optional_stop)
         for change in log.changes:
             runner.emit("io", change=change)
         end = positions_of(log.position[-1]) if len(log.position) else self.position
         if log.outcome == "done":
             runner.emit("tick", commanded=end, actual=None, progress=1.0, time_left=0.0, t=float(log.duration))
-            return log
+            return log.amended(events=self.notes)
         said = "e-stop" if log.outcome == "estop" else "stopped by the operator"
-        message = f"{said} at line {self.line}; outputs left safe: {self.job.safe.describe()}"
+        message = f"{said} at {self._where()}; outputs left safe: {self.job.safe.describe()}"
         runner.emit("tick", commanded=end, actual=None, t=float(log.duration))
         runner.message = message
         runner.set_state("aborted", message)

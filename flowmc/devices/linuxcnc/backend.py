@@ -116,7 +116,8 @@ def _check_period(servo_period: float) -> None:
 
 
 def render_ini(machine: Machine, *, program: str, display: str, dir: Path, servo_period: float,
-               timeout: float, start: "StartState", keep_on: tuple[int, ...] = ()) -> str:
+               timeout: float, start: "StartState", keep_on: tuple[int, ...] = (),
+               optional_stop: bool = False) -> str:
     """The simulator INI for this machine; ``program`` and ``display`` are absolute paths, ``dir`` the run directory."""
     _check_period(servo_period)
     fields = _axis_limits(machine, start.home if start.home is not None else home_position(machine))
@@ -124,6 +125,7 @@ def render_ini(machine: Machine, *, program: str, display: str, dir: Path, servo
     fields.update(
         DISPLAY=display, PROGRAM=program, EVENTS=str(dir / "events.jsonl"), RESULT=str(dir / "result.json"),
         SAMPLES=str(dir / "samples.txt"), COMMANDS=str(dir / "commands"), KEEP_ON=" ".join(map(str, keep_on)),
+        OPTIONAL_STOP="1" if optional_stop else "0",
         TIMEOUT=repr(float(timeout)), SERVO_PERIOD_NS=str(round(servo_period * 1e9)),
         TRAJ_VMAX=repr(max(a.vmax for a in xyz)) if xyz else "1.0",
         TRAJ_AMAX=repr(max(a.amax for a in xyz)) if xyz else "1.0",
@@ -169,7 +171,8 @@ def run_program(gcode: str, machine: Machine | None = None, *, servo_period: flo
                 timeout: float = 300.0, name: str = "program.ngc", start: StartState = StartState(),
                 on_progress: Callable[[int], None] | None = None, keep_dir: bool = False,
                 on_event: Callable[[dict], None] | None = None,
-                commands: Callable[[], list[str]] | None = None, keep_on: tuple[int, ...] = ()) -> LinuxCNCRun:
+                commands: Callable[[], list[str]] | None = None, keep_on: tuple[int, ...] = (),
+                optional_stop: bool = False) -> LinuxCNCRun:
     """Run G-code text on the simulated LinuxCNC machine with ``machine``'s X/Y/Z limits.
 
     The machine homes in place at ``start.home`` (default: 0 clipped into each axis's travel) and
@@ -206,7 +209,8 @@ def run_program(gcode: str, machine: Machine | None = None, *, servo_period: flo
         session.write("tool.tbl", (CONFIG / "tool.tbl").read_text())
         ini = session.write("flowmc_sim.ini", render_ini(
             machine, program=str(program), display=str(session.display_wrapper(HERE / "display.py")),
-            dir=session.dir, servo_period=servo_period, timeout=timeout, start=start, keep_on=keep_on))
+            dir=session.dir, servo_period=servo_period, timeout=timeout, start=start, keep_on=keep_on,
+            optional_stop=optional_stop))
         session.run(ini, timeout + _STARTUP_S, follow, poll)
         result_path = session.path("result.json")
         if not result_path.exists():

@@ -17,6 +17,8 @@ with M2, which would switch the spindle off.
 
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 
 from flowmc.devices.card import MotionCard
@@ -29,7 +31,7 @@ from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["LinuxCNCCard", "LINUXCNC_RANGES", "trajectory_gcode"]
+__all__ = ["LinuxCNCCard", "LINUXCNC_RANGES", "trajectory_gcode", "trajectory_lines"]
 
 #: Four digital outputs, analog output 0 as the DA, no PWM, no wired inputs.
 LINUXCNC_RANGES = CardRanges(inputs=0, outputs=4, analog="da")
@@ -56,43 +58,77 @@ def _signal_words(kind: str, channel: int, value: float, where: str) -> str:
 
 
 def trajectory_gcode(positions: np.ndarray, axes, period: float, signals: Signal | None = None,
-                     tolerance: float = 0.001) -> str:
+                     tolerance: float = 0.001, stops: Sequence[tuple[int, int, str]] = ()) -> str:
     """Setpoints as a G1 polyline, each line with the feed of its chord; pauses become G4 dwells.
 
     The program first moves (G0) to the first setpoint, which is a no-op when the machine is there.
 
     Signal events go before the line of the setpoint at or after their time (dout and DA with
-    the motion, M62/M63/M67; spindle S/M3/M4/M5).
+    the motion, M62/M63/M67; spindle S/M3/M4/M5). ``stops``: ``(row, before, line)``, a line (an M0
+    or M1) that LinuxCNC stops on once the motion has reached setpoint ``row`` (its queue runs empty
+    there), after the first ``before`` of that row's signals; the row's other signals follow it.
     """
+    return "\n".join(trajectory_lines(positions, axes, period, signals, tolerance, stops)[0]) + "\n"
+
+
+def trajectory_lines(positions: np.ndarray, axes, period: float, signals: Signal | None = None,
+                     tolerance: float = 0.001, stops: Sequence[tuple[int, int, str]] = ()
+                     ) -> tuple[list[str], np.ndarray]:
+    """``trajectory_gcode``'s lines, and for each line (1-based: index 0 is unused) the setpoint row the
+    machine has reached when LinuxCNC reports it as its motion line (what a job's progress reads)."""
     cols = [_XYZ.index(a.upper()) for a in axes]
     pos = np.asarray(positions, dtype=float)
     chord = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+    last = max(len(pos) - 1, 1)
     by_row: dict[int, list[str]] = {}
     if signals is not None:
         for t, kind, channel, value in zip(signals.t, signals.kind, signals.channel, signals.value):
-            row = min(max(int(np.ceil(t / period - 1e-9)), 1), max(len(pos) - 1, 1))
+            row = min(max(int(np.ceil(t / period - 1e-9)), 1), last)
             words = _signal_words(str(kind), int(channel), float(value), f"signal at t={t:g} s")
             if words:
                 by_row.setdefault(row, []).append(words)
+    after: dict[int, list[str]] = {}  # lines that follow the move to a row: its stops, the signals after them
+    grouped: dict[int, list[tuple[int, str]]] = {}
+    for row, before, line in stops:
+        grouped.setdefault(min(max(int(row), 1), last), []).append((int(before), line))
+    for row, here in grouped.items():
+        at = by_row.pop(row, [])
+        cut = min(here[0][0], len(at))
+        by_row[row], after[row] = at[:cut], []
+        for i, (_before, line) in enumerate(here):
+            upto = here[i + 1][0] if i + 1 < len(here) else len(at)
+            after[row] += [line, *at[cut:max(cut, upto)]]
+            cut = max(cut, upto)
     first = " ".join(f"{_XYZ[c]}{_num(v)}" for c, v in zip(cols, pos[0])) if len(pos) else ""
     out = ["%", "G21 G90 G17 G94", f"G64 P{_num(tolerance)}"] + ([f"G0 {first}"] if first else [])
+    rows = [0] * (len(out) + 1)
+
+    def put(lines: list[str], row: int) -> None:
+        out.extend(lines)
+        rows.extend([row] * len(lines))
+
     pause = 0
     for k in range(1, len(pos)):
-        out += by_row.get(k, [])
+        put(by_row.get(k, []), k - 1)
         if chord[k - 1] == 0.0:
             pause += 1
-            continue
-        if pause:
-            out.append(f"G4 P{_num(pause * period)}")
-            pause = 0
-        words = " ".join(f"{_XYZ[c]}{_num(v)}" for c, v in zip(cols, pos[k]))
-        out.append(f"G1 {words} F{_num(chord[k - 1] / period * 60.0)}")
+        else:
+            if pause:
+                put([f"G4 P{_num(pause * period)}"], k - 1)
+                pause = 0
+            words = " ".join(f"{_XYZ[c]}{_num(v)}" for c, v in zip(cols, pos[k]))
+            put([f"G1 {words} F{_num(chord[k - 1] / period * 60.0)}"], k)
+        if k in after:
+            if pause:
+                put([f"G4 P{_num(pause * period)}"], k)
+                pause = 0
+            put(after[k], k)
     if pause:
-        out.append(f"G4 P{_num(pause * period)}")
+        put([f"G4 P{_num(pause * period)}"], len(pos) - 1)
     if len(pos) <= 1:
-        out += by_row.get(1, [])
-    out.append("%")
-    return "\n".join(out) + "\n"
+        put(by_row.get(1, []) + after.get(1, []), 0)
+    put(["%"], max(len(pos) - 1, 0))
+    return out, np.asarray(rows, dtype=np.int64)
 
 
 class LinuxCNCCard(MotionCard):
@@ -169,18 +205,28 @@ class LinuxCNCCard(MotionCard):
 
     def _program(self, motion: Trajectory | Steps, signals: Signal | None) -> str:
         """The program as G-code for LinuxCNC (G64 P tolerance, signals as M-codes)."""
-        if isinstance(motion, Steps):
-            if motion.tick <= 0:
-                raise DeviceError("an untimed step stream has no speeds for LinuxCNC; give a trajectory "
-                                  "or a timed step stream", where="linuxcnc")
-            positions, period, axes = motion.positions(), motion.tick, motion.axes
-        else:
-            positions, period, axes = motion.positions, motion.period, motion.axes
+        return "\n".join(self.program_lines(motion, signals)[0]) + "\n"
+
+    def program_lines(self, motion: Trajectory | Steps, signals: Signal | None,
+                      stops: Sequence[tuple[int, int, str]] = ()) -> tuple[list[str], np.ndarray]:
+        """The program's G-code lines for LinuxCNC, with ``stops`` placed (``trajectory_lines``), and the
+        setpoint row each line number reaches."""
+        positions, period, axes = self.setpoints(motion)
         missing = [a for a in axes if a not in self.machine.names]
         if missing:
             raise DeviceError(f"program axes {missing} are not machine axes {self.machine.names}", where="linuxcnc")
         merged = motion.signals.merged(signals) if signals is not None else motion.signals
-        return trajectory_gcode(positions, axes, period, merged, self.tolerance)
+        return trajectory_lines(positions, axes, period, merged, self.tolerance, stops)
+
+    @staticmethod
+    def setpoints(motion: Trajectory | Steps) -> tuple[np.ndarray, float, tuple[str, ...]]:
+        """The rows LinuxCNC's program goes through (mm), their time step (s) and axes."""
+        if isinstance(motion, Steps):
+            if motion.tick <= 0:
+                raise DeviceError("an untimed step stream has no speeds for LinuxCNC; give a trajectory "
+                                  "or a timed step stream", where="linuxcnc")
+            return motion.positions(), motion.tick, motion.axes
+        return motion.positions, motion.period, motion.axes
 
     def home(self, axes: tuple[str, ...] | None = None, method: str = "switch") -> DeviceLog:
         """LinuxCNC homes in place (HOME_SEARCH_VEL = 0): the named axes become 0 where they stand."""

@@ -57,6 +57,7 @@ class Run:
         self.commands_path = ini.find("FLOWMC", "COMMANDS")
         self.commands_offset = 0
         self.keep_on = [int(v) for v in (ini.find("FLOWMC", "KEEP_ON") or "").split()]
+        self.optional_stop = (ini.find("FLOWMC", "OPTIONAL_STOP") or "0") == "1"
 
     def emit(self, kind, **data):
         data.update(kind=kind, t=time.time())
@@ -153,6 +154,9 @@ class Run:
         lc, c, s = self.lc, self.command, self.stat
         s.poll()
         self.emit("message", error=False, text=f"{' '.join([name, *value])} at line {s.motion_line}")
+        if name == "optional_stop":  # the program's M1 stops while on (checked as LinuxCNC reaches each M1)
+            c.set_optional_stop(value[0] == "1")
+            return None
         if name in ("feed", "rapid", "spindle"):  # overrides, in %
             scale = float(value[0]) / 100.0
             {"feed": c.feedrate, "rapid": c.rapidrate, "spindle": c.spindleoverride}[name](scale)
@@ -201,6 +205,8 @@ class Run:
         c.wait_complete(10.0)
         if self.poll_errors():
             raise RuntimeError("LinuxCNC refused the program")
+        c.set_optional_stop(self.optional_stop)  # LinuxCNC's own default is on
+        c.wait_complete(5.0)
         c.auto(lc.AUTO_RUN, 0)
         # Not wait_complete(): the task answers AUTO_RUN only once the program has ended. Wait until
         # the interpreter runs (a short program may already be over; the loop below sees that).
@@ -232,7 +238,8 @@ class Run:
             if self.poll_errors():
                 raise RuntimeError("LinuxCNC refused the program")
             if s.paused and s.current_vel == 0.0 and not held:
-                self.emit("state", state="held", line=s.motion_line, position=list(s.position[:3]))
+                self.emit("state", state="held", line=s.motion_line, current_line=s.current_line,
+                          position=list(s.position[:3]))
             held = bool(s.paused and s.current_vel == 0.0)
             if time.time() - last_position >= 0.04:  # 25 Hz position readout
                 last_position = time.time()

@@ -1,0 +1,130 @@
+"""Program stops (M0, M1 with the optional stop on, M6), single block, progress and time left of a job on
+the real LinuxCNC simulator, through the job API.
+
+The program is a 3 mm square at 10 mm/s with an M0 after the first side, an M1 after the second and a
+tool change (M5, T2 M6, M3) after the third. What is checked comes from HAL's sampler record of every
+servo period (the device log) and from the job's events: where the machine rests, for how long, and
+what the job said.
+"""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from flowmc.devices.jobs import Job, JobRunner
+from flowmc.motion.gcode import parse_gcode
+from flowmc.motion.lookahead import plan_lookahead
+from linuxcnc_programs import live_linuxcnc_processes, machine
+
+pytestmark = pytest.mark.linuxcnc
+
+PROGRAM = """G21 G90 G17
+M3 S1000
+G1 X3 F600
+(MSG, check the part)
+M0
+G1 Y3
+M1
+G1 X0
+M5
+T2 M6
+M3 S2000
+G1 Y0
+M2
+"""
+M0_AT, M1_AT, M6_AT, END = (3.0, 0.0, 0.0), (3.0, 3.0, 0.0), (0.0, 3.0, 0.0), (0.0, 0.0, 0.0)
+HOLD = 0.6  # s the test waits before Resume
+
+
+def _job() -> Job:
+    motion = plan_lookahead(parse_gcode(PROGRAM, "part.ngc"), machine()).trajectory
+    return Job("linuxcnc", machine(), "program", motion, name="square")
+
+
+def _run(on_held=None, **options):
+    """Run the job; Resume HOLD s after every held (``on_held(runner, event)`` first). (runner, held, ticks)."""
+    runner = JobRunner(_job(), **options)
+    held, ticks = [], []
+
+    def later(event):
+        if on_held is not None:
+            on_held(runner, event)
+        time.sleep(HOLD)
+        runner.resume()
+
+    def listen(event):
+        if event.kind == "tick":
+            ticks.append(event.status)
+        elif event.kind == "state" and event.status.state == "held":
+            held.append(event)
+            threading.Thread(target=later, args=(event,), daemon=True).start()
+
+    runner.subscribe(listen)
+    runner.run()
+    assert runner.state == "done", runner.message
+    assert not live_linuxcnc_processes()
+    return runner, held, ticks
+
+
+def _rest(log, point):
+    """Seconds the sampler saw the machine standing exactly at ``point``."""
+    at = np.all(np.abs(log.position - np.asarray(point)) < 1e-9, axis=1)
+    return np.count_nonzero(at) * log.period
+
+
+@pytest.fixture(scope="module")
+def plain():
+    """One run with the optional stop off (the simulator is slow: two tests read it)."""
+    return _run()
+
+
+def test_m0_and_m6_hold_the_job_at_their_points_and_m1_runs_on_with_the_optional_stop_off(plain):
+    runner, held, _ticks = plain
+    assert [e.message for e in held] == [
+        "program pause (M0) at segment 2 (part.ngc:5): check the part; Resume carries on",
+        "tool change (M6) at segment 6 (part.ngc:10): change to tool T2; Resume carries on"]
+    assert [e.status.line for e in held] == [5, 10]  # the editor shows the M0 and the M6 lines
+    for event, point in zip(held, (M0_AT, M6_AT)):
+        np.testing.assert_allclose(event.status.commanded, point, atol=1e-9)
+    log = runner.log
+    assert _rest(log, M0_AT) >= HOLD and _rest(log, M6_AT) >= HOLD  # at rest there until Resume
+    assert _rest(log, M1_AT) < 0.2  # the M1 did not hold the job (LinuxCNC only stops there, a moment)
+    np.testing.assert_allclose(log.end_position, END, atol=1e-9)
+    # M5 before the M6: the spindle is off before the machine stops there, and M3 S2000 after Resume
+    spindle = [(c.t, c.value) for c in log.changes if c.kind == "spindle_rpm"]
+    assert [v for _t, v in spindle] == [1000.0, 0.0, 2000.0, 0.0]
+    at_m6 = np.flatnonzero(np.all(np.abs(log.position - M6_AT) < 1e-9, axis=1))
+    assert spindle[1][0] <= log.t[at_m6[0]] + 1e-9 and spindle[2][0] - log.t[at_m6[0]] >= HOLD
+
+
+@pytest.mark.parametrize("at_start", [True, False])
+def test_m1_holds_the_job_with_the_optional_stop_on_at_start_or_switched_on_while_it_runs(at_start):
+    def switch_on(runner, event):
+        if not at_start and "M0" in event.message:
+            runner.set_optional_stop(True)
+
+    runner, held, _ticks = _run(switch_on, optional_stop=at_start)
+    assert [e.message.split(" at ")[0] for e in held] == ["program pause (M0)", "optional stop (M1)",
+                                                          "tool change (M6)"]
+    assert held[1].status.line == 7
+    np.testing.assert_allclose(held[1].status.commanded, M1_AT, atol=1e-9)
+    assert _rest(runner.log, M1_AT) >= HOLD
+    np.testing.assert_allclose(runner.log.end_position, END, atol=1e-9)
+
+
+def test_ticks_carry_the_users_gcode_line_rising_progress_and_falling_time_left(plain):
+    runner, _held, ticks = plain
+    placed = [s for s in ticks if s.where]  # from LinuxCNC's first position event on
+    progress = np.array([s.progress for s in placed])
+    left = np.array([s.time_left for s in placed])
+    assert np.all(np.diff(progress) >= 0) and np.all(np.diff(left) <= 1e-12)
+    assert progress[0] < 0.05 and progress[-1] == 1.0 and left[-1] == 0.0
+    assert left[0] == pytest.approx(runner.job.duration, abs=0.05)
+    mid = [s for s in placed if 0.3 < s.progress < 0.7 and s.state == "running"]
+    for s in mid:  # the plan's time still to run at this place (feed override 100 %)
+        assert s.time_left == pytest.approx(runner.job.duration * (1 - s.progress), abs=2e-3)
+    lines = [s.line for s in placed if s.line is not None]
+    assert {3, 5, 6, 8, 10, 12} <= set(lines) <= {3, 5, 6, 7, 8, 10, 12, 13}  # the user's lines, not LinuxCNC's
+    assert lines == sorted(lines)
