@@ -68,6 +68,7 @@ class LinuxCNCDriver:
         self.line_rows = np.zeros(1, dtype=np.int64)
         self.period = 0.0
         self.sb_from: int | None = None  # single block switched on without marks: the segment it was in
+        self.sb_ended = -1
 
     # ------------------------------------------------------------------ the program
     def _program(self) -> str:
@@ -104,7 +105,9 @@ class LinuxCNCDriver:
 
     # ------------------------------------------------------------------ where the job is
     def _segment(self) -> int | None:
-        seg = int(self.seg[min(self.row, len(self.seg) - 1)])
+        """The segment of the move that reached the current row (a stop on a segment's first row is
+        reached by the segment before it)."""
+        seg = int(self.seg[min(max(self.row - 1, 0), len(self.seg) - 1)])
         return None if seg < 0 else seg
 
     def _where(self) -> str:
@@ -186,7 +189,7 @@ class LinuxCNCDriver:
         self.paused = stop.pause
         text = stop.pause.describe()
         self.notes.append(Event("pause", 0.0, "", text))
-        self._tick()
+        self._tick()  # the stop's own place and line
         runner.set_state("held", text)
 
     def on_event(self, event: dict) -> None:
@@ -200,9 +203,13 @@ class LinuxCNCDriver:
             self._tick()
             self._single_block_without_marks()
         elif kind == "state" and event.get("state") == "held":
+            self._tick()  # where it rests (the last position event may be 40 ms old)
             if runner.state == "holding":
-                said = "single block: held after the end of" if self.sb_from is not None else "held at"
-                runner.set_state("held", f"{said} {self._where()}")
+                if self.sb_from is not None and self.single_block:
+                    runner.set_state("held", f"single block: held just past the end of {self.job.where(self.sb_ended)} "
+                                             "(LinuxCNC's program has no stop there)")
+                else:
+                    runner.set_state("held", f"held at {self._where()}")
             elif runner.state == "running":
                 self._stopped(int(event.get("line", 0)))
         elif kind == "state" and event.get("state") == "safe":
@@ -212,7 +219,7 @@ class LinuxCNCDriver:
         seg = self._segment()
         if (self.sb_from is not None and self.single_block and self.runner.state == "running"
                 and seg is not None and seg != self.sb_from):
-            self.sb_from = seg
+            self.sb_ended, self.sb_from = self.sb_from, seg
             self.sent.append("pause")
             self.runner.set_state("holding", f"single block: feed hold on entering {self.job.where(seg)}")
 
