@@ -121,6 +121,9 @@ def test_feed_override_halves_the_speed_for_the_rest_of_the_job():
     assert v[np.flatnonzero(log.position[1:, 0] < 5.0)].max() == pytest.approx(SPEED, rel=1e-3)
     late = (log.position[1:, 0] > 15.0) & (log.position[1:, 0] < LENGTH - 1.0) & moving
     np.testing.assert_allclose(v[late], SPEED / 2, rtol=1e-3)  # the rest at 5 mm/s
+    # time left: the plan's time still to run, doubled once the override is 50 %
+    slow = [s for _t, s in ticks if s.feed == 50.0 and 0.0 < s.progress < 1.0]
+    assert slow and all(s.time_left == pytest.approx(2 * LENGTH / SPEED * (1 - s.progress), abs=0.02) for s in slow)
     assert not live_linuxcnc_processes()
 
 

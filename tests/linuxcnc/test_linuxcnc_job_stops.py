@@ -208,3 +208,15 @@ def test_single_block_switched_on_while_running_holds_as_the_next_block_starts()
         assert 0.0 < np.linalg.norm(np.asarray(event.status.commanded) - end) < 0.5
         assert _rest(runner.log, event.status.commanded) >= HOLD
     assert held[0].status.commanded[1] > ends[0][1] and held[1].status.commanded[0] < ends[1][0]
+
+
+def test_a_stop_while_held_at_an_m0_aborts_there_with_the_spindle_off():
+    runner = JobRunner(_job())
+    runner.subscribe(lambda e: runner.stop() if e.kind == "state" and e.status.state == "held" else None)
+    log = runner.run()
+    assert runner.state == "aborted"
+    assert runner.message.startswith("stopped by the operator at segment 2 (part.ngc:5)")
+    assert log.outcome == "aborted"
+    np.testing.assert_allclose(log.end_position, M0_AT, atol=1e-9)  # the rest of the program cleared
+    assert [c.value for c in log.changes if c.kind == "spindle_rpm"] == [1000.0, 0.0]
+    assert not live_linuxcnc_processes()
