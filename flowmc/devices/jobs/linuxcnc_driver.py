@@ -69,6 +69,7 @@ class LinuxCNCDriver:
         self.period = 0.0
         self.sb_from: int | None = None  # single block switched on without marks: the segment it was in
         self.sb_ended = -1
+        self.passed = -1  # the segment of the last program stop resumed from
 
     # ------------------------------------------------------------------ the program
     def _program(self) -> str:
@@ -106,8 +107,9 @@ class LinuxCNCDriver:
     # ------------------------------------------------------------------ where the job is
     def _segment(self) -> int | None:
         """The segment of the move that reached the current row (a stop on a segment's first row is
-        reached by the segment before it)."""
-        seg = int(self.seg[min(max(self.row - 1, 0), len(self.seg) - 1)])
+        reached by the segment before it), or, resumed from a program stop, the stop's own until the
+        next move."""
+        seg = max(int(self.seg[min(max(self.row - 1, 0), len(self.seg) - 1)]), self.passed)
         return None if seg < 0 else seg
 
     def _where(self) -> str:
@@ -146,8 +148,8 @@ class LinuxCNCDriver:
                 if runner.state in when:
                     out.append(sent)
                     where = self._where()
-                    if name == "resume":
-                        self.paused = None
+                    if name == "resume" and self.paused is not None:
+                        self.passed, self.paused = self.paused.event.segment, None
                     runner.set_state(state, f"{said} at {where}")
                     self.notes.append(Event("job", 0.0, "", f"{name} at {where}"))
             else:
