@@ -220,3 +220,29 @@ def test_a_stop_while_held_at_an_m0_aborts_there_with_the_spindle_off():
     np.testing.assert_allclose(log.end_position, M0_AT, atol=1e-9)  # the rest of the program cleared
     assert [c.value for c in log.changes if c.kind == "spindle_rpm"] == [1000.0, 0.0]
     assert not live_linuxcnc_processes()
+
+
+def test_the_stops_go_into_linuxcncs_program_after_their_row_among_the_signals():
+    """No simulator: the program the driver hands to LinuxCNC, read line by line."""
+    from flowmc.devices.jobs.linuxcnc_driver import LinuxCNCDriver
+    from flowmc.devices.linuxcnc.card import LinuxCNCCard
+
+    def program(**options):
+        driver = LinuxCNCDriver(JobRunner(_job(), **options), LinuxCNCCard(machine()))
+        return driver, driver._program().splitlines()
+
+    driver, lines = program()
+    stops = [i for i, text in enumerate(lines) if text in ("M0", "M1")]
+    assert [lines[i] for i in stops] == ["M0", "M1", "M0"]  # M0; M1 left to LinuxCNC's optional stop; M6 as M0
+    assert [lines[i - 1].split(" F")[0] for i in stops] == ["G1 X3 Y0 Z0", "G1 X3 Y3 Z0", "G1 X0 Y3 Z0"]
+    assert lines[stops[2] - 2] == "M5" and lines[stops[2] + 1] == "S2000 M3"  # spindle off before, on after
+    assert [s.line for s in driver.stops] == [i + 1 for i in stops]  # LinuxCNC's line numbers, 1-based
+    rows = driver.line_rows
+    assert [rows[i] for i in stops] == [rows[i + 1] for i in (s - 1 for s in stops)]  # a stop is at its row
+    assert np.all(np.diff(rows[1:]) >= 0) and rows[len(lines)] == len(driver.seg) - 1
+    driver, lines = program(single_block=True)
+    marks = [s for s in driver.stops if s.pause is None]
+    # block ends that are not already firm stops: after the M0's own segment and after Y3 (with the M1);
+    # X0 ends on the M6's row, which stops anyway, and Y0 ends the program
+    assert [s.ended for s in marks] == [1, 2]
+    assert [s.line for s in driver.stops] == sorted(s.line for s in driver.stops) and len(driver.stops) == 5
