@@ -12,7 +12,8 @@ LinuxCNC's. A Path goes through flowmc's G-code exporter. Digital outputs 1-4 ar
 LinuxCNC's motion digital outputs 0-3 (M62/M63 with motion, M64/M65 at once), the DA
 is analog output 0 (M67/M68 E0), the spindle is S with M3/M4/M5. There is no PWM
 output and no wired input. Programs are written between ``%`` lines rather than ended
-with M2, which would switch the spindle off.
+with M2, which would switch the spindle off. A job's operator stops and single-block marks go in as
+M0/M1 lines after the move to their setpoint row (``trajectory_lines``' ``stops``).
 """
 
 from __future__ import annotations

@@ -15,7 +15,10 @@ as an operator would (``pause``: AUTO_PAUSE, a feed hold that decelerates along 
 path; ``resume``: AUTO_RESUME; ``abort``: the task's abort, a stop along the path within
 the acceleration limits that clears the rest, then spindle and outputs off; ``estop``:
 the machine's e-stop state at once, then the same outputs off; ``feed P``, ``rapid P``,
-``spindle P``: the overrides, P in %).
+``spindle P``: the overrides, P in %; ``optional_stop 0|1``: whether the program's M1 stops, which
+LinuxCNC reads as it reaches each M1; its value at the start is [FLOWMC] OPTIONAL_STOP, off unless
+asked, where LinuxCNC's own default is on). A pause of the program's own (M0, M1) is reported as
+``held`` like a feed hold, with the motion line it rests after.
 """
 
 import json
