@@ -249,3 +249,19 @@ def test_the_stops_go_into_linuxcncs_program_after_their_row_among_the_signals()
     # X0 ends on the M6's row, which stops anyway, and Y0 ends the program
     assert [s.ended for s in marks] == [1, 2]
     assert [s.line for s in driver.stops] == sorted(s.line for s in driver.stops) and len(driver.stops) == 5
+
+
+def test_a_pallet_change_goes_to_linuxcnc_as_an_m0_and_a_stop_at_the_programs_end_is_only_said():
+    from flowmc.devices.jobs.linuxcnc_driver import LinuxCNCDriver
+    from flowmc.devices.linuxcnc.card import LinuxCNCCard
+
+    motion = plan_lookahead(parse_gcode("G21 G90\nG1 X1 F600\nM60\nG1 X2\nM0\n", "pal.ngc"), machine()).trajectory
+    runner = JobRunner(Job("linuxcnc", machine(), "program", motion))
+    said = []
+    runner.subscribe(lambda e: said.append(e.message) if e.kind == "log" else None)
+    driver = LinuxCNCDriver(runner, LinuxCNCCard(machine()))
+    lines = driver._program().splitlines()
+    stops = [i for i, text in enumerate(lines) if text in ("M0", "M1")]
+    assert len(stops) == 1 and lines[stops[0] - 1].split(" F")[0] == "G1 X1 Y0 Z0"
+    assert driver.stops[0].pause.event.what == "pallet change (M60)"
+    assert said == ["program pause (M0) at segment 4 (pal.ngc:5): the program ends there"]
