@@ -127,6 +127,10 @@ def test_ticks_carry_the_users_gcode_line_rising_progress_and_falling_time_left(
     mid = [s for s in placed if 0.3 < s.progress < 0.7 and s.state == "running"]
     for s in mid:  # the plan's time still to run at this place (feed override 100 %)
         assert s.time_left == pytest.approx(runner.job.duration * (1 - s.progress), abs=2e-3)
+    planned = runner.job.motion.positions
+    rows = np.rint(np.array([s.progress for s in placed]) * (len(planned) - 1)).astype(int)
+    off = np.linalg.norm(planned[rows] - np.array([s.commanded for s in placed]), axis=1)
+    assert off.max() < 0.05  # the tick's place is where the machine is (LinuxCNC's line runs ahead of it)
     lines = [s.line for s in placed if s.line is not None]
     assert {3, 5, 6, 8, 10, 12} <= set(lines) <= {3, 5, 6, 7, 8, 10, 12, 13}  # the user's lines, not LinuxCNC's
     assert lines == sorted(lines)

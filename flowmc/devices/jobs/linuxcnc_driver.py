@@ -67,6 +67,8 @@ class LinuxCNCDriver:
         self.seg = np.zeros(1, dtype=np.int64)
         self.line_rows = np.zeros(1, dtype=np.int64)
         self.period = 0.0
+        self.positions = np.zeros((1, 1))
+        self.axes: tuple[str, ...] = ()
         self.sb_from: int | None = None  # single block switched on without marks: the segment it was in
         self.sb_ended = -1
         self.passed = -1  # the segment of the last program stop resumed from
@@ -76,7 +78,8 @@ class LinuxCNCDriver:
         """LinuxCNC's program with the job's stops, and the tables that read LinuxCNC's lines back."""
         job, card, runner = self.job, self.card, self.runner
         motion = job.motion
-        positions, self.period, _axes = card.setpoints(motion)
+        positions, self.period, self.axes = card.setpoints(motion)
+        self.positions = np.asarray(positions, dtype=float)
         n = len(positions)
         last = max(n - 1, 1)
         seg = np.asarray(motion.segment if motion.segment is not None else np.zeros(n, dtype=np.int64))
@@ -196,9 +199,9 @@ class LinuxCNCDriver:
 
     def on_event(self, event: dict) -> None:
         runner, kind = self.runner, event.get("kind")
-        if kind in ("position", "progress", "state") and "line" in event:
+        if "line" in event and "position" in event:  # a position event, or held at rest
             line = int(event["line"])
-            self.row = int(self.line_rows[min(max(line, 0), len(self.line_rows) - 1)])
+            self._reach(int(self.line_rows[min(max(line, 0), len(self.line_rows) - 1)]), event["position"])
         if "position" in event:
             self.position = self._cols(event["position"])
         if kind == "position":
@@ -224,6 +227,18 @@ class LinuxCNCDriver:
             self.sb_ended, self.sb_from = self.sb_from, seg
             self.sent.append("pause")
             self.runner.set_state("holding", f"single block: feed hold on entering {self.job.where(seg)}")
+
+    def _reach(self, upto: int, xyz) -> None:
+        """The row the machine is at: LinuxCNC's motion line names the last row of the move it runs, and
+        its planner joins straight runs of setpoint lines into one move (the line then leads the machine
+        by up to a second), so within that run the row is the setpoint nearest LinuxCNC's position."""
+        lo = min(self.row, upto)
+        if upto <= lo + 1:
+            self.row = upto
+            return
+        here = np.asarray([xyz["XYZ".index(a.upper())] for a in self.axes], dtype=float)
+        window = self.positions[lo:upto + 1]
+        self.row = lo + int(np.argmin(np.linalg.norm(window - here, axis=1)))
 
     def _cols(self, xyz) -> tuple[float, ...]:
         return positions_of([xyz["XYZ".index(a.upper())] for a in self.job.machine.names])
