@@ -20,7 +20,7 @@ exactly there; those marks are in the program only when the job starts with sing
 brings the motion to rest, so a job without single block has none). Switched off mid-job, the job
 resumes on its own at the marks still ahead; switched on in a job started without it, the job feeds
 hold as it enters the next segment and says so (LinuxCNC cannot stop where its program has no stop).
-A tick's place is the setpoint row of LinuxCNC's motion line: the segment and G-code line of the
+A tick's place is the setpoint row the machine is at (``_reach``): the segment and G-code line of the
 user's program, progress along the rows, and time left from the plan's times at the feed override.
 """
 
