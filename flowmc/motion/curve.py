@@ -114,7 +114,8 @@ class PlannedCurve:
 
     def _poly(self, u: np.ndarray, k: np.ndarray, order: int) -> list[np.ndarray]:
         x = (u - self.u0[k])[:, None]
-        c0, c1, c2, c3 = (self.coef[:, m][k] for m in range(4))
+        c = self.coef[k]
+        c0, c1, c2, c3 = c[:, 0], c[:, 1], c[:, 2], c[:, 3]
         out = [c0 + x * (c1 + x * (c2 + x * c3))]
         if order >= 1:
             out.append(c1 + x * (2.0 * c2 + x * (3.0 * c3)))
