@@ -51,7 +51,7 @@ from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import window_max, window_min
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law"]
+__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk"]
 
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
 _ROUNDS = 20
@@ -317,11 +317,14 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
 
 
 def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
-                  feed_of_u, lim: PathLimits, *, jerk: bool = False) -> TimeLaw:
+                  feed_of_u, lim: PathLimits, *, jerk: bool = False, mend_swings: bool = True) -> TimeLaw:
     """The fastest time law on ``curve`` under ``lim`` (see the module docstring).
 
     ``feed_of_u(u)`` gives the path-speed cap at curve parameters u; ``stop_u`` are parameters where the
     tool rests (with ``stop_dwell`` seconds, owned by dwell segment ``stop_segment`` or -1).
+    ``mend_swings=False`` (jerk-limited laws only) skips step 2 of ``_filterable``, whose bound stacks every
+    term at its worst: faster, and usually within the jerk limit anyway, which the caller then checks from
+    the samples (``sampled_jerk``).
     """
     u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP)
     du = np.diff(u)
@@ -345,13 +348,13 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
         y, _ = _profile(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
         window = 0.0
     else:
-        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim)
+        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
     accel = np.diff(y) / (2.0 * ds)
     return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
 
 
 def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray, geo: _Geometry,
-                  m: int, lim: PathLimits) -> tuple[np.ndarray, float]:
+                  m: int, lim: PathLimits, mend_swings: bool = True) -> tuple[np.ndarray, float]:
     """The jerk-limited profile and its filter length Tj.
 
     The filter allows an acceleration jump of jmax Tj within Tj, so Tj = amax / jmax lets the tangential
@@ -367,7 +370,7 @@ def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds
         budget_of = _Budgets(geo, m, lim, window)
         rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
         y, _ = _profile(cap, stops, ds, budget_of)
-        y = _filterable(y, cap, budget_of, stops, ds, window, rest)
+        y = _filterable(y, cap, budget_of, stops, ds, window, rest, mend_swings)
         dt = np.diff(_node_times(y, ds))
         total = float(dt.sum() + rest.sum()) + window
         if best is None or total < best[0]:
@@ -380,7 +383,7 @@ def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds
 
 
 def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
-                window: float, rest: np.ndarray) -> np.ndarray:
+                window: float, rest: np.ndarray, mend_swings: bool = True) -> np.ndarray:
     """The profile made fit for the moving average over Tj.
 
     1. The filtered motion at time t averages the unfiltered one over [t - Tj, t], so wherever it is,
@@ -392,12 +395,13 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     2. The jerk of the filtered motion is (a(t) - a(t - Tj)) / Tj. The budgets allow a jump of one
        budget within Tj. A swing further than that (speeding up within Tj of slowing down) is mostly a
        peak: those are cut flat for Tj (``_flatten_peaks``). Wherever a swing remains, the intervals
-       involved get budgets safe for a swing of twice the budget, and it is planned again.
+       involved get budgets safe for a swing of twice the budget, and it is planned again (only with
+       ``mend_swings``; flowmc.motion.planner checks the samples of a law planned without).
     """
     m = len(ds)
     swing = np.zeros(m, dtype=bool)
     fastest = y
-    for _ in range(_SWING_ROUNDS):
+    for _ in range(_SWING_ROUNDS if mend_swings else 1):
         y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
@@ -421,7 +425,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
         over = ((window_max(a, p_lo, p_hi) - a > allowed * (1 + 1e-9))
                 | (a - window_min(a, p_lo, p_hi) > allowed * (1 + 1e-9)))
         over &= ~swing & has
-        if not over.any():
+        if not mend_swings or not over.any():
             break
         # mark each offending interval and its partners (a difference array over the ranges)
         k = np.flatnonzero(over)
@@ -647,3 +651,12 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
     u = law.u_at(s, curve)
     u[-1] = law.u[-1]
     return u, seg
+
+
+def sampled_jerk(positions: np.ndarray, lim: PathLimits) -> float:
+    """The largest per-axis jerk of setpoints ``positions`` (the machine's columns, period ``lim.period``),
+    by third differences as a device sees it, over that axis's jmax."""
+    cols = list(lim.cols)
+    if len(positions) < 4:
+        return 0.0
+    return float(np.max(np.abs(np.diff(positions, 3, axis=0)) / lim.period**3 / lim.jmax[cols]))
