@@ -113,9 +113,10 @@ class PlannedCurve:
         return out
 
     def _poly(self, u: np.ndarray, k: np.ndarray, order: int) -> list[np.ndarray]:
-        x = (u - self.u0[k])[:, None]
-        c = self.coef[k]
-        c0, c1, c2, c3 = c[:, 0], c[:, 1], c[:, 2], c[:, 3]
+        # worked as (3, n) rows, so numpy's inner loops run along the points rather than over 3 columns
+        by_power = self.coef.transpose(1, 2, 0)
+        c0, c1, c2, c3 = (np.take(by_power[m], k, axis=1) for m in range(4))
+        x = u - self.u0[k]
         out = [c0 + x * (c1 + x * (c2 + x * c3))]
         if order >= 1:
             out.append(c1 + x * (2.0 * c2 + x * (3.0 * c3)))
@@ -123,7 +124,7 @@ class PlannedCurve:
             out.append(2.0 * c2 + (6.0 * x) * c3)
         if order >= 3:
             out.append(6.0 * c3)
-        return out
+        return [o.T for o in out]
 
     def points(self, u) -> np.ndarray:
         return self.evaluate(u, 0)[0]

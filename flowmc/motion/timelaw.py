@@ -114,18 +114,18 @@ class TimeLaw:
     def _newton(self, s: np.ndarray, u: np.ndarray, k: np.ndarray, index: np.ndarray,
                 curve: PlannedCurve) -> np.ndarray:
         """Newton steps on polynomial intervals (the only ones with a varying ds/du): |p'| from each row's
-        coefficients, gathered once."""
+        coefficients, gathered once, worked as (axis, node, sample) so numpy's inner loops run along the samples."""
         u0, u1 = self.u[k], self.u[k + 1]
-        c = curve.coef[index]  # (n, 4, 3)
-        c1, c2, c3 = c[:, None, 1], 2.0 * c[:, None, 2], 3.0 * c[:, None, 3]
+        by_power = curve.coef.transpose(1, 2, 0)
+        c1, c2, c3 = (f * np.take(by_power[m], index, axis=1)[:, None, :] for m, f in ((1, 1.0), (2, 2.0), (3, 3.0)))
         start = curve.u0[index]
-        nodes_x = np.r_[0.5 * (1.0 + _GL3_X), 1.0]  # the Gauss-Legendre nodes on [u0, u], and u itself
+        nodes_x = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [u0, u], and u itself
         for _ in range(2):
-            x = (u0 - start)[:, None] + (u - u0)[:, None] * nodes_x[None, :]  # (n, 4) from the row's start
-            d1 = c1 + x[..., None] * (c2 + x[..., None] * c3)
-            speed = np.sqrt(np.einsum("ijk,ijk->ij", d1, d1))
-            err = self.s[k] + 0.5 * (u - u0) * (speed[:, :-1] @ _GL3_W) - s
-            u = np.clip(u - err / np.maximum(speed[:, -1], 1e-12), u0, u1)
+            x = (u0 - start) + (u - u0) * nodes_x  # (4, n) from the row's start
+            d1 = c1 + x * (c2 + x * c3)
+            speed = np.sqrt(np.einsum("ijk,ijk->jk", d1, d1))
+            err = self.s[k] + 0.5 * (u - u0) * (_GL3_W @ speed[:-1]) - s
+            u = np.clip(u - err / np.maximum(speed[-1], 1e-12), u0, u1)
         return u
 
 
