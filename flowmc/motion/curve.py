@@ -100,16 +100,18 @@ class PlannedCurve:
         kk = k[arc]
         x = u[arc] - self.u0[kk]
         phi = self.phi0[kk] + self.dphi[kk] * x
-        r, d = self.radius[kk, None], self.dphi[kk, None]
-        cos, sin = np.cos(phi)[:, None], np.sin(phi)[:, None]
-        e1, e2 = self.e1[kk], self.e2[kk]
-        out[0][arc] = self.centre[kk] + r * (cos * e1 + sin * e2) + (self.rise[kk] * x)[:, None] * self.w[kk]
+        # (3, n) rows, as in _poly
+        r, d, rise = self.radius[kk], self.dphi[kk], self.rise[kk]
+        cos, sin = np.cos(phi), np.sin(phi)
+        e1, e2, w = self.e1[kk].T, self.e2[kk].T, self.w[kk].T
+        radial = cos * e1 + sin * e2
+        out[0][arc] = (self.centre[kk].T + r * radial + (rise * x) * w).T
         if order >= 1:
-            out[1][arc] = r * d * (-sin * e1 + cos * e2) + self.rise[kk, None] * self.w[kk]
+            out[1][arc] = ((r * d) * (cos * e2 - sin * e1) + rise * w).T
         if order >= 2:
-            out[2][arc] = -r * d**2 * (cos * e1 + sin * e2)
+            out[2][arc] = (-(r * d**2) * radial).T
         if order >= 3:
-            out[3][arc] = r * d**3 * (sin * e1 - cos * e2)
+            out[3][arc] = ((r * d**3) * (sin * e1 - cos * e2)).T
         return out
 
     def _poly(self, u: np.ndarray, k: np.ndarray, order: int) -> list[np.ndarray]:
