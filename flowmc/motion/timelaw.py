@@ -131,7 +131,9 @@ class TimeLaw:
 
 def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarray:
     """Nodes: every interval boundary and stop, lines every _LINE_STEP, arcs every few degrees, splines
-    halved; and a node between any two stops, so no interval starts and ends at rest."""
+    halved; and at least three intervals between any two stops, so no interval starts and ends at rest
+    and a jerk-limited move between them has a middle interval to hold its top speed on (_flatten_peaks
+    cuts a peak flat from node to node: with one node between two stops it could only cut it to rest)."""
     parts = [curve.u0, curve.u1[-1:], stop_u]
     width = curve.u1 - curve.u0
     line = (curve.kind == POLY) & np.all(curve.coef[:, 2:] == 0.0, axis=(1, 2))
@@ -169,10 +171,11 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarr
         u = np.unique(np.r_[u, new])
         fresh = np.isin(u, new)
         check = fresh[:-1] | fresh[1:]
-    is_stop = np.isin(u, stop_u)
-    both = np.flatnonzero(is_stop[:-1] & is_stop[1:])
-    if len(both):
-        u = np.unique(np.r_[u, 0.5 * (u[both] + u[both + 1])])
+    at = np.flatnonzero(np.isin(u, stop_u))
+    few = np.flatnonzero(np.diff(at) < 3)
+    if len(few):
+        a, b = u[at[few]], u[at[few + 1]]
+        u = np.unique(np.r_[u, a + (b - a) / 3.0, a + 2.0 * (b - a) / 3.0])
     return u
 
 

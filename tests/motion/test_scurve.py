@@ -122,3 +122,16 @@ def test_a_law_within_the_jerk_limit_keeps_its_swings_unmended_and_is_faster():
     assert plan.cycle_time < 0.99 * mended
     q, T = plan.trajectory.positions, machine.period
     assert np.abs(np.diff(q, 3, axis=0)).max() / T**3 <= 500.0
+
+
+def test_a_short_move_between_two_stops_is_planned_not_left_at_rest():
+    # 11 lines of 0.4-2 mm, most corners sharp (stops): a move between two stops used to get one grid node
+    # inside, so its speed peak could only be cut flat to rest (1e299 s of motion, refused by the budget)
+    pts = [[0.0, 0.0], [0.069, -1.478], [-0.032, -0.988], [-0.133, 0.749], [-0.814, -1.083], [-2.361, -1.882],
+           [-2.072, -2.181], [-1.807, -3.307], [-0.731, -2.504], [1.08, -2.316], [-0.121, -2.233], [-0.532, -1.908]]
+    machine = cam_machine(jerk=500.0, period=0.004)
+    plan = plan_smooth(Path.polyline(np.c_[np.array(pts), np.zeros(len(pts))], feed=200.0), machine,
+                       tolerance=0.05, profile="scurve")
+    assert plan.cycle_time < 10.0  # 11 rests of Tj = 0.4 s and the moves between them
+    q, T = plan.trajectory.positions, machine.period
+    assert np.abs(np.diff(q, 3, axis=0)).max() / T**3 <= 500.0
