@@ -100,21 +100,25 @@ class PlannedCurve:
         kk = k[arc]
         x = u[arc] - self.u0[kk]
         phi = self.phi0[kk] + self.dphi[kk] * x
-        r, d = self.radius[kk, None], self.dphi[kk, None]
-        cos, sin = np.cos(phi)[:, None], np.sin(phi)[:, None]
-        e1, e2 = self.e1[kk], self.e2[kk]
-        out[0][arc] = self.centre[kk] + r * (cos * e1 + sin * e2) + (self.rise[kk] * x)[:, None] * self.w[kk]
+        # (3, n) rows, as in _poly
+        r, d, rise = self.radius[kk], self.dphi[kk], self.rise[kk]
+        cos, sin = np.cos(phi), np.sin(phi)
+        e1, e2, w = self.e1[kk].T, self.e2[kk].T, self.w[kk].T
+        radial = cos * e1 + sin * e2
+        out[0][arc] = (self.centre[kk].T + r * radial + (rise * x) * w).T
         if order >= 1:
-            out[1][arc] = r * d * (-sin * e1 + cos * e2) + self.rise[kk, None] * self.w[kk]
+            out[1][arc] = ((r * d) * (cos * e2 - sin * e1) + rise * w).T
         if order >= 2:
-            out[2][arc] = -r * d**2 * (cos * e1 + sin * e2)
+            out[2][arc] = (-(r * d**2) * radial).T
         if order >= 3:
-            out[3][arc] = r * d**3 * (sin * e1 - cos * e2)
+            out[3][arc] = ((r * d**3) * (sin * e1 - cos * e2)).T
         return out
 
     def _poly(self, u: np.ndarray, k: np.ndarray, order: int) -> list[np.ndarray]:
-        x = (u - self.u0[k])[:, None]
-        c0, c1, c2, c3 = (self.coef[:, m][k] for m in range(4))
+        # worked as (3, n) rows, so numpy's inner loops run along the points rather than over 3 columns
+        by_power = self.coef.transpose(1, 2, 0)
+        c0, c1, c2, c3 = (np.take(by_power[m], k, axis=1) for m in range(4))
+        x = u - self.u0[k]
         out = [c0 + x * (c1 + x * (c2 + x * c3))]
         if order >= 1:
             out.append(c1 + x * (2.0 * c2 + x * (3.0 * c3)))
@@ -122,7 +126,7 @@ class PlannedCurve:
             out.append(2.0 * c2 + (6.0 * x) * c3)
         if order >= 3:
             out.append(6.0 * c3)
-        return out
+        return [o.T for o in out]
 
     def points(self, u) -> np.ndarray:
         return self.evaluate(u, 0)[0]

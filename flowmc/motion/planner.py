@@ -5,7 +5,9 @@ tangent-continuous for the trapezoid profile, curvature-continuous for the jerk-
 flowmc.motion.timelaw (per-axis velocity, acceleration and, for ``profile="scurve"``, jerk limits
 along the curve; the whole program at once, so "look-ahead" is the entire program) + sampling at
 t = kT. The tool is on the smoothed curve at every setpoint; every setpoint is tagged with the
-programmed segment it is on.
+programmed segment it is on. A jerk-limited law is first planned without mending the swings of its
+acceleration (timelaw's ``mend_swings``: a bound that stacks every jerk term at its worst), and planned again
+with them mended only if its sampled setpoints break a jerk limit.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from flowmc.motion.path import Path
 from flowmc.motion.pieces import _check_axes
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
-from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law
+from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law, sampled_jerk
 from flowmc.motion.trajectory import Trajectory
 
 __all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
@@ -70,10 +72,17 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     def feed_of_u(u):
         return sm.seg_feed[curve.segment_at(u)]
 
-    law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, feed_of_u, lim, jerk=jerk)
-    u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
-    pos = curve.points(u)
-    pos[0], pos[-1] = path.start, path.end
+    def planned(mend_swings: bool):
+        law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, feed_of_u, lim, jerk=jerk,
+                            mend_swings=mend_swings)
+        u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
+        pos = curve.points(u)
+        pos[0], pos[-1] = path.start, path.end
+        return law, u, dwell_seg, pos
+
+    law, u, dwell_seg, pos = planned(not jerk)
+    if jerk and sampled_jerk(pos[:, list(lim.cols)], lim) > 1.0:
+        law, u, dwell_seg, pos = planned(True)  # a swing of the acceleration broke the jerk limit: mend them all
     tags = np.where(dwell_seg >= 0, dwell_seg, curve.segment_at(u))
     tags = np.maximum.accumulate(tags)
     cols = list(lim.cols)

@@ -82,6 +82,7 @@ _PARAM_PASSES = 3  # refits with the data re-parameterised by arc length along t
 _STENCILS = {2: np.array([1.0, -2.0, 1.0]), 3: np.array([1.0, -3.0, 3.0, -1.0])}
 _ELL = 100.0  # longest smoothing length in knot spans
 _ELL_SEGMENTS = 1.5  # initial smoothing length in programmed segment lengths
+_ELL_SEGMENTS_JERK = 2.2  # ... for jerk-limited fits: chord ripple in the curvature's slope costs speed as v^3
 _ELL_TOL = 20.0  # and at least this many tolerances: details below the tolerance are smoothed away
 _BLUR = 41  # control points over which the smoothing's local scale is evened out
 _REACH = 2.0  # smoothing lengths either side of a stray point over which smoothing is reduced
@@ -395,7 +396,8 @@ class _RunFitter:
         per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
         per_cp = uniform_filter1d(per_cp, size=41)
         hd = hr[self.diff_run]
-        ell = np.clip(np.maximum(_ELL_SEGMENTS * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
+        segments = _ELL_SEGMENTS_JERK if self.order == 3 else _ELL_SEGMENTS
+        ell = np.clip(np.maximum(segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
         self.mu = ell**(2 * self.order) / (0.25 * hd * hd**(2 * self.order - 1))
         self.floor = (hd / ell) ** (2 * self.order)
         reach = np.ceil(_REACH * ell / hd).astype(int)

@@ -51,7 +51,7 @@ from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import window_max, window_min
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law"]
+__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk"]
 
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
 _ROUNDS = 20
@@ -113,20 +113,27 @@ class TimeLaw:
 
     def _newton(self, s: np.ndarray, u: np.ndarray, k: np.ndarray, index: np.ndarray,
                 curve: PlannedCurve) -> np.ndarray:
+        """Newton steps on polynomial intervals (the only ones with a varying ds/du): |p'| from each row's
+        coefficients, gathered once, worked as (axis, node, sample) so numpy's inner loops run along the samples."""
         u0, u1 = self.u[k], self.u[k + 1]
+        by_power = curve.coef.transpose(1, 2, 0)
+        c1, c2, c3 = (f * np.take(by_power[m], index, axis=1)[:, None, :] for m, f in ((1, 1.0), (2, 2.0), (3, 3.0)))
+        start = curve.u0[index]
+        nodes_x = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [u0, u], and u itself
         for _ in range(2):
-            half = 0.5 * (u - u0)
-            nodes = (0.5 * (u + u0))[:, None] + half[:, None] * _GL3_X[None, :]
-            d1 = curve.evaluate(np.c_[nodes, u].ravel(), 1, index=np.repeat(index, len(_GL3_X) + 1))[1]
-            speed = np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(len(u), -1)
-            err = self.s[k] + half * (speed[:, :-1] @ _GL3_W) - s
-            u = np.clip(u - err / np.maximum(speed[:, -1], 1e-12), u0, u1)
+            x = (u0 - start) + (u - u0) * nodes_x  # (4, n) from the row's start
+            d1 = c1 + x * (c2 + x * c3)
+            speed = np.sqrt(np.einsum("ijk,ijk->jk", d1, d1))
+            err = self.s[k] + 0.5 * (u - u0) * (_GL3_W @ speed[:-1]) - s
+            u = np.clip(u - err / np.maximum(speed[-1], 1e-12), u0, u1)
         return u
 
 
 def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarray:
     """Nodes: every interval boundary and stop, lines every _LINE_STEP, arcs every few degrees, splines
-    halved; and a node between any two stops, so no interval starts and ends at rest."""
+    halved; and at least three intervals between any two stops, so no interval starts and ends at rest
+    and a jerk-limited move between them has a middle interval to hold its top speed on (_flatten_peaks
+    cuts a peak flat from node to node: with one node between two stops it could only cut it to rest)."""
     parts = [curve.u0, curve.u1[-1:], stop_u]
     width = curve.u1 - curve.u0
     line = (curve.kind == POLY) & np.all(curve.coef[:, 2:] == 0.0, axis=(1, 2))
@@ -164,10 +171,11 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarr
         u = np.unique(np.r_[u, new])
         fresh = np.isin(u, new)
         check = fresh[:-1] | fresh[1:]
-    is_stop = np.isin(u, stop_u)
-    both = np.flatnonzero(is_stop[:-1] & is_stop[1:])
-    if len(both):
-        u = np.unique(np.r_[u, 0.5 * (u[both] + u[both + 1])])
+    at = np.flatnonzero(np.isin(u, stop_u))
+    few = np.flatnonzero(np.diff(at) < 3)
+    if len(few):
+        a, b = u[at[few]], u[at[few + 1]]
+        u = np.unique(np.r_[u, a + (b - a) / 3.0, a + 2.0 * (b - a) / 3.0])
     return u
 
 
@@ -312,11 +320,14 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
 
 
 def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
-                  feed_of_u, lim: PathLimits, *, jerk: bool = False) -> TimeLaw:
+                  feed_of_u, lim: PathLimits, *, jerk: bool = False, mend_swings: bool = True) -> TimeLaw:
     """The fastest time law on ``curve`` under ``lim`` (see the module docstring).
 
     ``feed_of_u(u)`` gives the path-speed cap at curve parameters u; ``stop_u`` are parameters where the
     tool rests (with ``stop_dwell`` seconds, owned by dwell segment ``stop_segment`` or -1).
+    ``mend_swings=False`` (jerk-limited laws only) skips step 2 of ``_filterable``, whose bound stacks every
+    term at its worst: faster, and usually within the jerk limit anyway, which the caller then checks from
+    the samples (``sampled_jerk``).
     """
     u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP)
     du = np.diff(u)
@@ -340,13 +351,13 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
         y, _ = _profile(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
         window = 0.0
     else:
-        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim)
+        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
     accel = np.diff(y) / (2.0 * ds)
     return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
 
 
 def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray, geo: _Geometry,
-                  m: int, lim: PathLimits) -> tuple[np.ndarray, float]:
+                  m: int, lim: PathLimits, mend_swings: bool = True) -> tuple[np.ndarray, float]:
     """The jerk-limited profile and its filter length Tj.
 
     The filter allows an acceleration jump of jmax Tj within Tj, so Tj = amax / jmax lets the tangential
@@ -362,7 +373,7 @@ def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds
         budget_of = _Budgets(geo, m, lim, window)
         rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
         y, _ = _profile(cap, stops, ds, budget_of)
-        y = _filterable(y, cap, budget_of, stops, ds, window, rest)
+        y = _filterable(y, cap, budget_of, stops, ds, window, rest, mend_swings)
         dt = np.diff(_node_times(y, ds))
         total = float(dt.sum() + rest.sum()) + window
         if best is None or total < best[0]:
@@ -375,7 +386,7 @@ def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds
 
 
 def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
-                window: float, rest: np.ndarray) -> np.ndarray:
+                window: float, rest: np.ndarray, mend_swings: bool = True) -> np.ndarray:
     """The profile made fit for the moving average over Tj.
 
     1. The filtered motion at time t averages the unfiltered one over [t - Tj, t], so wherever it is,
@@ -387,12 +398,13 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     2. The jerk of the filtered motion is (a(t) - a(t - Tj)) / Tj. The budgets allow a jump of one
        budget within Tj. A swing further than that (speeding up within Tj of slowing down) is mostly a
        peak: those are cut flat for Tj (``_flatten_peaks``). Wherever a swing remains, the intervals
-       involved get budgets safe for a swing of twice the budget, and it is planned again.
+       involved get budgets safe for a swing of twice the budget, and it is planned again (only with
+       ``mend_swings``; flowmc.motion.planner checks the samples of a law planned without).
     """
     m = len(ds)
     swing = np.zeros(m, dtype=bool)
     fastest = y
-    for _ in range(_SWING_ROUNDS):
+    for _ in range(_SWING_ROUNDS if mend_swings else 1):
         y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
@@ -416,7 +428,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
         over = ((window_max(a, p_lo, p_hi) - a > allowed * (1 + 1e-9))
                 | (a - window_min(a, p_lo, p_hi) > allowed * (1 + 1e-9)))
         over &= ~swing & has
-        if not over.any():
+        if not mend_swings or not over.any():
             break
         # mark each offending interval and its partners (a difference array over the ranges)
         k = np.flatnonzero(over)
@@ -642,3 +654,12 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
     u = law.u_at(s, curve)
     u[-1] = law.u[-1]
     return u, seg
+
+
+def sampled_jerk(positions: np.ndarray, lim: PathLimits) -> float:
+    """The largest per-axis jerk of setpoints ``positions`` (the machine's columns, period ``lim.period``),
+    by third differences as a device sees it, over that axis's jmax."""
+    cols = list(lim.cols)
+    if len(positions) < 4:
+        return 0.0
+    return float(np.max(np.abs(np.diff(positions, 3, axis=0)) / lim.period**3 / lim.jmax[cols]))

@@ -13,7 +13,9 @@ from flowmc.motion import timelaw
 from flowmc.motion.lookahead import plan_lookahead
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.path import Path
+from flowmc.motion.limits import PathLimits
 from flowmc.motion.planner import plan_smooth
+from flowmc.motion.smoothing import smooth_path
 
 GRAPHS = FsPath(__file__).resolve().parents[2] / "graphs"
 REF = FsPath(__file__).resolve().parents[1] / "data" / "reference" / "paths"
@@ -78,3 +80,58 @@ def test_straight_code_keeps_the_full_filter():
     assert plan.jerk_window == 200.0 / 5000.0
     q, T = plan.trajectory.positions, 0.001
     assert np.abs(np.diff(q, 3, axis=0)).max() / T**3 <= 5000.0
+
+
+#: A random walk of 32 lines (10-50 mm, turns of about 0.3 rad) on which a jerk-limited law planned without
+#: mending the swings of its acceleration breaks the jerk limit (1.004 x at j = 500 mm/s^3, T = 1 ms).
+SWINGING = [[-200.0, -350.0], [-170.774, -350.157], [-122.539, -357.38], [-112.229, -354.048], [-94.61, -335.455],
+            [-65.008, -308.177], [-46.632, -298.083], [-37.438, -291.821], [-10.889, -288.164], [34.791, -277.632],
+            [75.44, -264.016], [120.138, -245.764], [128.212, -236.104], [130.876, -216.911], [130.375, -169.669],
+            [134.206, -121.438], [127.38, -93.677], [121.623, -85.157], [113.247, -53.275], [110.655, -8.008],
+            [110.743, 16.723], [132.28, 58.194], [139.716, 65.526], [151.446, 104.302], [159.39, 114.74],
+            [176.714, 157.401], [193.276, 181.195], [205.02, 219.251], [207.152, 230.435], [203.713, 267.312],
+            [207.903, 280.815], [213.424, 308.132], [224.044, 337.123]]
+
+
+def _law_jerk(path: Path, machine: Machine, mend_swings: bool) -> tuple[float, float]:
+    """Duration and sampled per-axis jerk over the limit of the jerk-limited law alone, swings mended or not."""
+    lim = PathLimits.of(machine)
+    sm = smooth_path(path, lim, 0.05, continuity=2)
+    law = timelaw.plan_time_law(sm.curve, sm.stop_u, sm.stop_dwell, sm.stop_segment,
+                                lambda u: sm.seg_feed[sm.curve.segment_at(u)], lim, jerk=True, mend_swings=mend_swings)
+    u, _ = timelaw.sample_time_law(law, sm.curve, machine.period)
+    return (len(u) - 1) * machine.period, timelaw.sampled_jerk(sm.curve.points(u)[:, list(lim.cols)], lim)
+
+
+def test_a_law_whose_samples_break_the_jerk_limit_is_planned_again_with_its_swings_mended():
+    path = Path.polyline(np.c_[np.array(SWINGING), np.zeros(len(SWINGING))], feed=200.0)
+    machine = cam_machine(jerk=500.0)
+    assert _law_jerk(path, machine, mend_swings=False)[1] > 1.0  # the first try breaks it
+    plan = plan_smooth(path, machine, tolerance=0.05, profile="scurve")
+    q, T = plan.trajectory.positions, machine.period
+    assert np.abs(np.diff(q, 3, axis=0)).max() / T**3 <= 500.0
+
+
+def test_a_law_within_the_jerk_limit_keeps_its_swings_unmended_and_is_faster():
+    # mixed at j = 500: mending the swings everywhere costs 2 % and was not needed (sampled jerk 0.99 x)
+    data = json.loads((REF / "mixed.json").read_text())
+    path = Path.polyline(data["points"], feed=200.0)
+    machine = cam_machine(jerk=500.0, period=0.004)
+    plan = plan_smooth(path, machine, tolerance=0.05, profile="scurve")
+    mended, _ = _law_jerk(path, machine, mend_swings=True)
+    assert plan.cycle_time < 0.99 * mended
+    q, T = plan.trajectory.positions, machine.period
+    assert np.abs(np.diff(q, 3, axis=0)).max() / T**3 <= 500.0
+
+
+def test_a_short_move_between_two_stops_is_planned_not_left_at_rest():
+    # 11 lines of 0.4-2 mm, most corners sharp (stops): a move between two stops used to get one grid node
+    # inside, so its speed peak could only be cut flat to rest (1e299 s of motion, refused by the budget)
+    pts = [[0.0, 0.0], [0.069, -1.478], [-0.032, -0.988], [-0.133, 0.749], [-0.814, -1.083], [-2.361, -1.882],
+           [-2.072, -2.181], [-1.807, -3.307], [-0.731, -2.504], [1.08, -2.316], [-0.121, -2.233], [-0.532, -1.908]]
+    machine = cam_machine(jerk=500.0, period=0.004)
+    plan = plan_smooth(Path.polyline(np.c_[np.array(pts), np.zeros(len(pts))], feed=200.0), machine,
+                       tolerance=0.05, profile="scurve")
+    assert plan.cycle_time < 10.0  # 11 rests of Tj = 0.4 s and the moves between them
+    q, T = plan.trajectory.positions, machine.period
+    assert np.abs(np.diff(q, 3, axis=0)).max() / T**3 <= 500.0
