@@ -93,6 +93,7 @@ def grbl_start(job, card, start_segment: int, status: dict, optional_stop: bool 
     if tool is not None:
         assumptions.append(f"assumed: tool T{tool.tool} is loaded (the last tool change before it, "
                            f"{job.where(tool.segment)})")
-    assumptions.append("on GRBL: the approach goes as G0 to the safe Z and across at GRBL's rapid rates, "
-                       "the plunge as G1, the spin-up as G4")
+    if approach:
+        assumptions.append(f"sent to GRBL as: {'; '.join(line.text for line in approach)} (G0 at GRBL's own "
+                           "rapid rates, which it plans within its own acceleration)")
     return lines, assumptions
