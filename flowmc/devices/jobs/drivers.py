@@ -18,13 +18,6 @@ def driver_for(runner, card):
     from flowmc.devices.grbl import GrblCard
     from flowmc.devices.linuxcnc.card import LinuxCNCCard
 
-    if runner.start_at is not None and not (isinstance(card, GrblCard) and runner.job.operation == "program"):
-        # Only the simulated card and GRBL rebuild the machine state mid-program; running the whole
-        # program instead would be motion nobody asked for.
-        raise DeviceError(f"starting at {runner.job.where(runner.start_at)} is not supported on "
-                          f"'{runner.job.device}' yet: nothing was moved; start the job from its beginning, "
-                          "or run it on the simulated card", where=runner.job.name or "job")
-
     if isinstance(card, LinuxCNCCard) and runner.job.operation == "program":
         from flowmc.devices.jobs.linuxcnc_driver import LinuxCNCDriver
 

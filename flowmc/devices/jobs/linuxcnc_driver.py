@@ -9,12 +9,18 @@ and DA set to 0 V. LinuxCNC's state comes back as events: ``held`` once paused a
 every 40 ms (each a job tick), the program line. Feed, rapid and spindle overrides are LinuxCNC's own
 (``feedrate``, ``rapidrate``, ``spindleoverride``: the planner re-times the rest within its limits).
 Program stops and single block are not passed on yet: a job with them is refused at Start (drivers.py).
+A start at segment N runs the approach and the program from there (``linuxcnc_restart``); LinuxCNC's
+program lines are named back as the user's segment, G-code line and progress in every tick.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from flowmc.devices.jobs.job import positions_of
+from flowmc.devices.jobs.linuxcnc_restart import ProgramRows, start_motion
 from flowmc.devices.log import DeviceLog, Event
+from flowmc.motion.trajectory import Steps
 
 __all__ = ["LinuxCNCDriver"]
 
@@ -58,23 +64,35 @@ class LinuxCNCDriver:
         if "position" in event:
             self.position = self._cols(event["position"])
         if kind == "position":
-            runner.emit("tick", commanded=self.position, actual=None, line=self.line, where=f"line {self.line}")
+            runner.emit("tick", commanded=self.position, actual=None, where=f"line {self.line}",
+                        **self.rows.at(self.line))
         elif kind == "state" and event.get("state") == "held" and runner.state == "holding":
             runner.set_state("held", f"held at line {self.line}")
         elif kind == "state" and event.get("state") == "safe":
             runner.emit("log", f"outputs left safe: {self.job.safe.describe()}")
 
     def run(self) -> DeviceLog:
-        runner = self.runner
+        runner, job = self.runner, self.job
+        motion, signals, original = job.motion, job.signals, None
+        if runner.start_at is not None:  # the approach and the program from the segment on (linuxcnc_restart)
+            motion, original, assumptions = start_motion(job, self.card, runner.start_at)
+            signals = None
+            runner.assumptions = ([runner.line_note] if runner.line_note else []) + assumptions
+            for text in runner.assumptions:
+                runner.emit("log", text)
+                self.notes.append(Event("restart", 0.0, "", text))
+        seg = job.motion.segment
+        segment = np.concatenate([seg[:1], seg]) if isinstance(job.motion, Steps) else np.asarray(seg)
+        self.rows = ProgramRows(self.card, motion, signals, original, segment, job.segment_names)
         runner.emit("tick", commanded=self.position, actual=None)
-        log = self.card.run(self.job.motion, self.job.signals, check=False, commands=self.commands,
+        log = self.card.run(motion, signals, check=False, commands=self.commands,
                             on_event=self.on_event, keep_on=tuple(self.job.safe.keep_on))
         for change in log.changes:
             runner.emit("io", change=change)
         end = positions_of(log.position[-1]) if len(log.position) else self.position
         if log.outcome == "done":
             runner.emit("tick", commanded=end, actual=None, progress=1.0, time_left=0.0, t=float(log.duration))
-            return log
+            return log.amended(events=self.notes)
         said = "e-stop" if log.outcome == "estop" else "stopped by the operator"
         message = f"{said} at line {self.line}; outputs left safe: {self.job.safe.describe()}"
         runner.emit("tick", commanded=end, actual=None, t=float(log.duration))
