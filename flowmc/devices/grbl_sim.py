@@ -18,7 +18,8 @@ What it models
 - Injected faults: ``error_at={line: code}``, ``alarm_at={line: code}``, and ``vanish_after=N``
   (the port disappears once line N has been answered). Lines count from 1 after each reset.
 - ``trace``: what it executed, as (time, machine position, spindle M3/M4/M5, S, coolant M7/M8/M9)
-  each time one of them changed (every 1-2 ms while the motion model moves), so a test can check
+  each time one of them changed (every 1-2 ms while the motion model moves, and every block's end
+  point), so a test can check
   from the raw record where the machine went and in which state.
 - Real-time bytes, acted on at once and never buffered: ``?`` status report
   (``<Idle|MPos:x,y,z|Bf:15,free|FS:feed,rpm>``, state Idle, Run while lines wait, Hold:0, Alarm),
@@ -198,6 +199,9 @@ class GrblSimulator:
                     now = time.monotonic()
                     self.model.advance(now - last_step)
                     last_step = now
+                    for end in self.model.ends:  # every corner, even one passed within a step
+                        self._record(end)
+                    self.model.ends.clear()
                     self.mpos = self.model.position
                 if (not self.hold and b"\n" in self.rx and time.monotonic() - last_line >= self.line_time
                         and self._may_process()):
@@ -208,8 +212,8 @@ class GrblSimulator:
         finally:
             self._close()
 
-    def _record(self) -> None:
-        state = (tuple(self.mpos), self.spindle_dir, self.spindle, self.coolant)
+    def _record(self, position=None) -> None:
+        state = (tuple(self.mpos if position is None else position), self.spindle_dir, self.spindle, self.coolant)
         if not self.trace or self.trace[-1][1:] != state:
             self.trace.append((time.monotonic(), *state))
 

@@ -172,6 +172,8 @@ def _start_mid(grbl_sim, **options):
     """A mill job started mid-program on a simulator whose machine stands at ELSEWHERE; (sim, runner, ticks, logged)."""
     sim = grbl_sim(motion=True, accel=ACCEL)
     sim.model.position = list(ELSEWHERE)
+    _wait(lambda: sim.mpos == ELSEWHERE, 5, "the simulator standing elsewhere")
+    sim.trace.clear()  # what it recorded at the origin before
     motion, machine = _mill()
     runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", motion, name="mill"), **options)
     ticks, logged = [], []
