@@ -35,7 +35,8 @@ from flowmc.motion.machine import Machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["ProgramLine", "motion_gcode", "program_rows", "signal_code", "text_gcode", "decimate", "PEN_COMMANDS", "check_pen_commands"]
+__all__ = ["ProgramLine", "motion_gcode", "program_rows", "signal_code", "text_gcode", "decimate", "PEN_COMMANDS",
+           "check_pen_commands"]
 
 PREAMBLE = ("G21", "G90", "G94")  # millimetres, absolute, feed per minute
 #: Tool (pen) down and up: the spindle output as GRBL pen plotters wire it.

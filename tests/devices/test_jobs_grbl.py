@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import flowmc
-from flowmc.devices.jobs import Job, JobRunner
 from flowmc.devices.grbl_sim import GrblSimulator
+from flowmc.devices.jobs import Job, JobRunner
 from flowmc.devices.jobs.grbl_driver import override_bytes
 from flowmc.errors import DeviceError
 from flowmc.motion.gcode import parse_gcode

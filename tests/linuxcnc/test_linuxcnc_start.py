@@ -12,8 +12,8 @@ import pytest
 from flowmc.devices import backends
 from flowmc.devices.jobs import Job, JobRunner
 from flowmc.devices.jobs.runner import claim
-from flowmc.errors import DeviceError
 from flowmc.devices.linuxcnc.card import LinuxCNCCard
+from flowmc.errors import DeviceError
 from flowmc.motion.gcode import parse_gcode
 from flowmc.motion.lookahead import plan_stop_and_go
 from job_waits import quiet as _quiet

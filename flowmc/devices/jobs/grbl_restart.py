@@ -56,7 +56,7 @@ def _approach(plan: StartPlan, names: tuple[str, ...], vmax_z: float | None, pen
         words = " ".join(f"{a}{v:.4f}".rstrip("0").rstrip(".") for a, v, d in zip(names, pts[row], step)
                          if abs(d) > 1e-12 and a in "XYZ")
         plunge = z is not None and row == end and step[z] < 0 and np.count_nonzero(np.abs(step) > 1e-12) == 1
-        if plunge:
+        if plunge and vmax_z is not None:
             lines.append(ProgramLine(f"G1 {words} F{PLUNGE_SHARE * vmax_z * 60.0:.1f}", f"approach: down to {where}"))
         else:
             lines.append(ProgramLine(f"G0 {words}", f"approach to {where}"))

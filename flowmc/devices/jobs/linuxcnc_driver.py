@@ -15,12 +15,9 @@ program lines are named back as the user's segment, G-code line and progress in 
 
 from __future__ import annotations
 
-import numpy as np
-
 from flowmc.devices.jobs.job import positions_of
 from flowmc.devices.jobs.linuxcnc_restart import ProgramRows, start_motion
 from flowmc.devices.log import DeviceLog, Event
-from flowmc.motion.trajectory import Steps
 
 __all__ = ["LinuxCNCDriver"]
 
@@ -81,9 +78,7 @@ class LinuxCNCDriver:
             for text in runner.assumptions:
                 runner.emit("log", text)
                 self.notes.append(Event("restart", 0.0, "", text))
-        seg = job.motion.segment
-        segment = np.concatenate([seg[:1], seg]) if isinstance(job.motion, Steps) else np.asarray(seg)
-        self.rows = ProgramRows(self.card, motion, signals, original, segment, job.segment_names)
+        self.rows = ProgramRows(self.card, motion, signals, original, job.motion, job.segment_names)
         runner.emit("tick", commanded=self.position, actual=None)
         log = self.card.run(motion, signals, check=False, commands=self.commands,
                             on_event=self.on_event, keep_on=tuple(self.job.safe.keep_on))

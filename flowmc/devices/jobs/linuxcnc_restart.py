@@ -24,7 +24,9 @@ __all__ = ["ProgramRows", "start_motion"]
 def _rows(motion: Trajectory | Steps) -> tuple[np.ndarray, np.ndarray, float]:
     """(positions, segment per row, period) as the LinuxCNC card runs them."""
     if isinstance(motion, Steps):
-        return motion.positions(), np.concatenate([motion.segment[:1], motion.segment]), motion.tick
+        pos = motion.positions()
+        seg = motion.segment if motion.segment is not None else np.zeros(len(pos) - 1, dtype=int)
+        return pos, np.concatenate([seg[:1], seg]), motion.tick  # row 0 is the origin
     return np.asarray(motion.positions), np.asarray(motion.segment), motion.period
 
 
@@ -32,9 +34,9 @@ class ProgramRows:
     """LinuxCNC's program line -> the original program's row (-1 on the approach), for the G-code that
     ``card`` writes for ``motion`` and ``signals`` (one G1 per moving row, in order: every other line
     belongs to the next G1). ``to_original``: the original row of each of ``motion``'s rows (None: the
-    same); ``segment`` and ``names``: the original program's."""
+    same); ``program`` (its segment per row) and ``names``: the original program's."""
 
-    def __init__(self, card, motion, signals: Signal | None, to_original: np.ndarray | None, segment: np.ndarray,
+    def __init__(self, card, motion, signals: Signal | None, to_original: np.ndarray | None, program,
                  names: tuple[str, ...]):
         pos, _seg, _T = _rows(motion)
         moving = np.flatnonzero(np.linalg.norm(np.diff(pos, axis=0), axis=1) > 0) + 1
@@ -43,8 +45,9 @@ class ProgramRows:
         first_g1 = np.searchsorted(g1, np.arange(len(text) + 2))  # by 1-based line: the G1 it belongs to
         rows = moving[np.minimum(first_g1, len(moving) - 1)] if len(moving) else np.zeros(len(first_g1), dtype=int)
         rows = np.where(first_g1 < len(g1), rows, len(pos) - 1)  # after the last G1: the end
-        self.rows = rows if to_original is None else np.asarray(to_original)[rows]
-        self.segment, self.names, self.n = segment, names, len(segment)
+        self.rows = rows if to_original is None else to_original[rows]
+        self.segment = _rows(program)[1]
+        self.names, self.n = names, len(self.segment)
         ahead = self.rows[self.rows >= 0]
         self.first = int(ahead.min()) if len(ahead) else 0  # where the program starts (after an approach)
 
