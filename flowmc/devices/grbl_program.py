@@ -26,7 +26,7 @@ signal times are in ticks when it is untimed (the
 from __future__ import annotations
 
 import re
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -35,7 +35,8 @@ from flowmc.motion.machine import Machine
 from flowmc.motion.path import describe_segment
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
-__all__ = ["ProgramLine", "motion_gcode", "text_gcode", "decimate", "PEN_COMMANDS", "check_pen_commands"]
+__all__ = ["ProgramLine", "motion_gcode", "program_rows", "signal_code", "text_gcode", "decimate", "PEN_COMMANDS",
+           "check_pen_commands"]
 
 PREAMBLE = ("G21", "G90", "G94")  # millimetres, absolute, feed per minute
 #: Tool (pen) down and up: the spindle output as GRBL pen plotters wire it.
@@ -46,10 +47,11 @@ _MIN_DWELL_S = 0.001
 
 class ProgramLine(NamedTuple):
     """A line to send and where it came from (``"setpoint 120 of segment 5 (row 4)"``, ``"part.ngc:12"``,
-    ``"preamble"``)."""
+    ``"preamble"``); ``row``: the program's setpoint row it belongs to (-1: none, e.g. the preamble)."""
 
     text: str
     source: str
+    row: int = -1
 
 
 def _num(x: float) -> str:
@@ -107,7 +109,12 @@ def check_pen_commands(pen) -> tuple[str, str] | None:
 
 def _signal_codes(sig: Signal, i: int, pen: tuple[str, str] | None) -> str:
     """The line for signal ``i``; "" for a tool signal when there is no pen."""
-    kind, ch, value = str(sig.kind[i]), int(sig.channel[i]), float(sig.value[i])
+    return signal_code(str(sig.kind[i]), int(sig.channel[i]), float(sig.value[i]), pen,
+                       f"signal {i} at t={sig.t[i]:g} s")
+
+
+def signal_code(kind: str, ch: int, value: float, pen: tuple[str, str] | None, where: str) -> str:
+    """The G-code line that sets output ``kind``/``ch`` to ``value``; "" for the tool without a pen."""
     if kind == "tool":
         return "" if pen is None else pen[0] if value else pen[1]
     if kind == "spindle_rpm":
@@ -115,17 +122,12 @@ def _signal_codes(sig: Signal, i: int, pen: tuple[str, str] | None) -> str:
     if kind == "dout" and ch == 1:
         return "M8" if value else "M9"
     raise DeviceError(f"GRBL cannot drive {kind} channel {ch} (only the spindle, and output 1 as flood "
-                      f"coolant M8/M9)", where=f"signal {i} at t={sig.t[i]:g} s")
+                      f"coolant M8/M9)", where=where)
 
 
-def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal | None = None,
-                 tolerance: float = 0.01, pen: tuple[str, str] | None = None, optional_stop: bool = False
-                 ) -> list[ProgramLine]:
-    """G-code lines for a trajectory or step stream (axes X, Y, Z only: GRBL's).
-
-    ``pen``: the (down, up) commands for tool signals, or None to send none.
-    """
-    pen = check_pen_commands(pen)
+def program_rows(motion: Trajectory | Steps, machine: Machine, signals: Signal | None = None):
+    """(positions, seconds per row, segment per row, "setpoint"/"step", merged signals, row per signal,
+    seconds per signal-time unit) of a program as GRBL gets it; DeviceError for axes GRBL lacks."""
     bad = [a for a in motion.axes if a not in ("X", "Y", "Z")]
     if bad:
         raise DeviceError(f"GRBL drives X, Y and Z; the program also moves {', '.join(bad)}", where="grbl")
@@ -143,30 +145,51 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
     else:
         raise DeviceError(f"GRBL runs a Trajectory, Steps or G-code text, not {type(motion).__name__}", where="grbl")
     sig = motion.signals if signals is None else motion.signals.merged(signals)
+    per_row = dt if not (isinstance(motion, Steps) and motion.tick <= 0) else 1.0  # untimed: ticks
+    sig_rows = np.clip(np.ceil(np.asarray(sig.t) / per_row - 1e-9).astype(int), 0, len(pos) - 1)
+    return pos, dt, seg, unit, sig, sig_rows, per_row
+
+
+def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal | None = None,
+                 tolerance: float = 0.01, pen: tuple[str, str] | None = None, optional_stop: bool = False,
+                 *, start_row: int | None = None, approach: Sequence[ProgramLine] = ()) -> list[ProgramLine]:
+    """G-code lines for a trajectory or step stream (axes X, Y, Z only: GRBL's).
+
+    ``pen``: the (down, up) commands for tool signals, or None to send none. ``start_row``: start the
+    program at this row instead of its first, after the ``approach`` lines (which bring the machine
+    there in the state the program built before it: the signals up to that row are not sent again,
+    nor the stops before it).
+    """
+    pen = check_pen_commands(pen)
+    pos, dt, seg, unit, sig, sig_rows, per_row = program_rows(motion, machine, signals)
     kinds = set(sig.kind.tolist())
     if pen is not None and {"tool", "spindle_rpm"} <= kinds and any(_SPINDLE_WORD.search(c) for c in pen):
         i = int(np.flatnonzero(sig.kind == "tool")[0])
         raise DeviceError(f"the program sets the spindle and lifts and lowers the tool, whose commands "
                           f"({pen[0]!r} / {pen[1]!r}) drive the spindle too; give the pen commands that do not "
                           f"(e.g. M8 / M9) or none", where=f"signal {i} at t={sig.t[i]:g}")
-    per_row = dt if not (isinstance(motion, Steps) and motion.tick <= 0) else 1.0  # untimed: ticks
-    sig_rows = np.clip(np.ceil(np.asarray(sig.t) / per_row - 1e-9).astype(int), 0, len(pos) - 1)
-    stops = _stop_rows(motion, seg, optional_stop, per_row, len(pos))
-    kept = decimate(pos, tolerance, keep=np.concatenate([sig_rows, [row for row, _n, _s in stops]]).astype(int))
+    r0 = 0 if start_row is None else int(start_row)
+    stops = _stop_rows(motion, seg, optional_stop, per_row, len(pos), int(seg[r0]) if start_row is not None else None)
+    keep = np.concatenate([sig_rows, [row for row, _n, _s in stops]]).astype(int)
+    kept = r0 + decimate(pos[r0:], tolerance, keep=keep[keep >= r0] - r0)
     lines = [ProgramLine(t, "preamble") for t in PREAMBLE]
     if pen is not None and "tool" in kinds:  # a program's tool starts up, before the move to its start
         lines.append(ProgramLine(pen[1], "preamble (tool up)"))
-    start = " ".join(f"{a}{_num(v)}" for a, v in zip(motion.axes, pos[0]))
     source = lambda row: _row_source(unit, int(row), seg, motion.segment_names)  # noqa: E731
-    lines.append(ProgramLine(f"G0 {start}", source(0)))
+    if start_row is None:
+        start = " ".join(f"{a}{_num(v)}" for a, v in zip(motion.axes, pos[0]))
+        lines.append(ProgramLine(f"G0 {start}", source(0), 0))
+    else:
+        lines += approach
     codes: dict[int, list[ProgramLine]] = {}  # row -> signal lines (every signal row is a kept point)
     for i in np.argsort(sig_rows, kind="stable"):
         code = _signal_codes(sig, int(i), pen)
-        if code:
-            codes.setdefault(int(sig_rows[i]), []).append(ProgramLine(code, f"signal {int(i)}"))
+        row = int(sig_rows[i])
+        if code and (start_row is None or row > r0):  # up to the start row: the approach restored it
+            codes.setdefault(row, []).append(ProgramLine(code, f"signal {int(i)}", row))
     for row, before, said in reversed(stops):  # after the program's own signals that come before it
         at = codes.setdefault(row, [])
-        at.insert(min(before, len(at)), ProgramLine("M0", said))
+        at.insert(min(before, len(at)), ProgramLine("M0", said, row))
     for prev, row in zip(kept[:-1], kept[1:]):
         lines += codes.get(int(prev), [])
         step = pos[row] - pos[prev]
@@ -174,20 +197,22 @@ def motion_gcode(motion: Trajectory | Steps, machine: Machine, signals: Signal |
         seconds = (row - prev) * dt
         if length < 1e-9:
             if seconds >= _MIN_DWELL_S:
-                lines.append(ProgramLine(f"G4 P{_num(seconds)}", source(row)))
+                lines.append(ProgramLine(f"G4 P{_num(seconds)}", source(row), int(prev)))
             continue
         words = " ".join(f"{a}{_num(v)}" for a, v, d in zip(motion.axes, pos[row], step) if abs(d) > 0)
-        lines.append(ProgramLine(f"G1 {words} F{_num(length / seconds * 60.0)}", source(row)))
+        lines.append(ProgramLine(f"G1 {words} F{_num(length / seconds * 60.0)}", source(row), int(prev)))
     lines += codes.get(int(kept[-1]), [])
     return lines
 
 
-def _stop_rows(motion, seg: np.ndarray, optional_stop: bool, per_row: float, n: int) -> list[tuple[int, int, str]]:
-    """(row, how many of the row's signal codes come first, source) of each operator stop, in order."""
+def _stop_rows(motion, seg: np.ndarray, optional_stop: bool, per_row: float, n: int,
+               from_segment: int | None = None) -> list[tuple[int, int, str]]:
+    """(row, how many of the row's signal codes come first, source) of each operator stop, in order;
+    ``from_segment``: only the stops at it and after it (a stop before a mid-program start is behind it)."""
     own = np.clip(np.ceil(np.asarray(motion.signals.t) / per_row - 1e-9).astype(int), 0, n - 1)
     out = []
     for e in motion.events:
-        if e.kind == "optional_pause" and not optional_stop:
+        if e.kind == "optional_pause" and not optional_stop or from_segment is not None and e.segment < from_segment:
             continue
         row = min(int(np.searchsorted(seg, e.segment, side="left")), n - 1)
         said = e.said

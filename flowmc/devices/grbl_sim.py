@@ -17,6 +17,10 @@ What it models
   (``error:9``) until ``$X`` or a soft reset, and its receive buffer is flushed, as GRBL does.
 - Injected faults: ``error_at={line: code}``, ``alarm_at={line: code}``, and ``vanish_after=N``
   (the port disappears once line N has been answered). Lines count from 1 after each reset.
+- ``trace``: what it executed, as (time, machine position, spindle M3/M4/M5, S, coolant M7/M8/M9)
+  each time one of them changed (every 1-2 ms while the motion model moves, and every block's end
+  point), so a test can check
+  from the raw record where the machine went and in which state.
 - Real-time bytes, acted on at once and never buffered: ``?`` status report
   (``<Idle|MPos:x,y,z|Bf:15,free|FS:feed,rpm>``, state Idle, Run while lines wait, Hold:0, Alarm),
   ``!`` feed hold (line processing pauses), ``~`` resume, Ctrl-X soft reset (buffer cleared,
@@ -90,6 +94,8 @@ class GrblSimulator:
         self.mpos = [0.0, 0.0, 0.0]  # machine position survives a soft reset, as on GRBL
         self.model = MotionModel(self.mpos, accel=accel, rapid_rate=rapid_rate) if motion else None
         self.bytes_seen: list[tuple[float, int]] = []  # (monotonic time, byte) of every real-time byte
+        #: (monotonic time, (x, y, z), spindle M3/M4/M5, S, coolant M7/M8/M9), each time one of them changed
+        self.trace: list[tuple[float, tuple[float, ...], int, float, int]] = []
         self._reset_state()
         self.alarm = 0
 
@@ -193,14 +199,23 @@ class GrblSimulator:
                     now = time.monotonic()
                     self.model.advance(now - last_step)
                     last_step = now
+                    for end in self.model.ends:  # every corner, even one passed within a step
+                        self._record(end)
+                    self.model.ends.clear()
                     self.mpos = self.model.position
                 if (not self.hold and b"\n" in self.rx and time.monotonic() - last_line >= self.line_time
                         and self._may_process()):
                     last_line = time.monotonic()
                     if not self._process_line():
                         break
+                self._record()
         finally:
             self._close()
+
+    def _record(self, position=None) -> None:
+        state = (tuple(self.mpos if position is None else position), self.spindle_dir, self.spindle, self.coolant)
+        if not self.trace or self.trace[-1][1:] != state:
+            self.trace.append((time.monotonic(), *state))
 
     def _may_process(self) -> bool:
         """With the motion model: a move waits for room in the planner; M-codes and dwells wait until it

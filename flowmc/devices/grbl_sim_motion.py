@@ -54,6 +54,7 @@ class MotionModel:
         self.speed = 0.0  # mm/s now
         self.hold = False
         self.overrides = {"feed": 100, "rapid": 100, "spindle": 100}
+        self.ends: list[list[float]] = []  # where blocks ended since the simulator last took them
 
     # ------------------------------------------------------------ queue
     @property
@@ -131,3 +132,4 @@ class MotionModel:
             self.position = [s + (t - s) * f for s, t in zip(b.start, b.target)]
             if b.length - self.done_s <= 1e-6:
                 self.position, self.block, self.speed = list(b.target), None, 0.0
+                self.ends.append(list(b.target))

@@ -72,3 +72,14 @@ def test_start_line_names_the_job_and_a_program_without_gcode_lines_says_so():
     proc = subprocess.run([sys.executable, "-m", "flowmc", "run", GRAPH, "--start-line", "3"],
                           capture_output=True, text=True, timeout=120, cwd=REPO)
     assert proc.returncode != 0 and "no motion at G-code line 3 or after it" in proc.stderr
+
+
+def test_start_line_runs_on_the_grbl_simulator_graph_from_that_line():
+    """The teaching machine streams to the GRBL protocol simulator: --start-line starts it at that line."""
+    graph = str(REPO / "graphs" / "teaching_machine.flowmc.json")
+    proc = subprocess.run([sys.executable, "-m", "flowmc", "run", graph, "--start-line", "7"],
+                          capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr
+    assert "job grbl: started at segment 5 (text:7) at X 29.983, Y 30.000, Z 0.000 mm" in proc.stderr
+    assert "job grbl: sent to GRBL as: G0 X29.9828 Y30" in proc.stderr and "job grbl: done" in proc.stderr
+    assert '"outcome": "done"' in proc.stdout

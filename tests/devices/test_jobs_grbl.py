@@ -3,6 +3,7 @@
 speed). What is checked comes from the simulator's own record of the bytes it received and from the
 status reports the job logged."""
 
+import functools
 import threading
 import time
 
@@ -10,10 +11,14 @@ import numpy as np
 import pytest
 
 import flowmc
+from flowmc.devices.grbl_sim import GrblSimulator
 from flowmc.devices.jobs import Job, JobRunner
 from flowmc.devices.jobs.grbl_driver import override_bytes
 from flowmc.errors import DeviceError
+from flowmc.motion.gcode import parse_gcode
+from flowmc.motion.lookahead import plan_stop_and_go
 from flowmc.motion.machine import Machine
+from job_helpers import distance_to_polyline
 from job_waits import quiet as _quiet
 from job_waits import wait_until as _wait
 
@@ -113,14 +118,151 @@ def test_estop_resets_at_once_and_grbl_reports_the_lost_position(grbl_sim):
     assert not sim.model.busy and sim.spindle_dir == 5
 
 
-def test_a_start_mid_program_is_refused_before_anything_moves(grbl_sim):
-    """GRBL does not rebuild the state mid-program yet: streaming the whole program instead would be
-    motion nobody asked for, so the job faults at Start, naming the segment, and the board sees no line."""
+# ---------------------------------------------------------------- start at segment or G-code line N
+
+MILL = """G21 G90 G17
+G0 X0 Y0 Z5
+M3 S1000
+M8
+G1 Z-1 F600
+G1 X20 F2400
+G1 Y20
+G0 Z5
+G0 X30 Y0
+G1 Z-1 F600
+G1 X40 Y10 F2400
+G1 X30 Y20
+G0 Z5
+M9
+M5
+M2
+"""
+ELSEWHERE = [35.0, 25.0, 3.0]  # where the machine stands before a mid-program start
+PATH_TOL = 0.025  # mm: each stream is the plan thinned to within the card's 0.01 mm, the two thinned apart
+
+
+def _mill():
+    machine = Machine()
+    return plan_stop_and_go(parse_gcode(MILL, "part.ngc"), machine).trajectory, machine
+
+
+@functools.lru_cache(maxsize=1)
+def _uninterrupted():
+    """The raw trace (time, xyz, spindle M-code, S, coolant M-code) of the whole program on its own simulator."""
+    motion, machine = _mill()
+    sim = GrblSimulator(motion=True, accel=ACCEL, idle_timeout=20.0, lifetime=120.0)
+    sim.start()
+    try:
+        runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", motion, name="mill"))
+        runner.run()
+        assert runner.state == "done"
+        return tuple(sim.trace)
+    finally:
+        sim.stop()
+
+
+def _from(trace, point):
+    """The positions of ``trace`` from the first time it stands at ``point`` on."""
+    xyz = np.array([p for _t, p, *_s in trace])
+    k = int(np.flatnonzero(np.linalg.norm(xyz - point, axis=1) < 1e-3)[0])
+    return xyz[k:]
+
+
+def _start_mid(grbl_sim, **options):
+    """A mill job started mid-program on a simulator whose machine stands at ELSEWHERE; (sim, runner, ticks, logged)."""
+    sim = grbl_sim(motion=True, accel=ACCEL)
+    sim.model.position = list(ELSEWHERE)
+    _wait(lambda: sim.mpos == ELSEWHERE, 5, "the simulator standing elsewhere")
+    sim.trace.clear()  # what it recorded at the origin before
+    motion, machine = _mill()
+    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", motion, name="mill"), **options)
+    ticks, logged = [], []
+    runner.subscribe(lambda e: ticks.append(e.status) if e.kind == "tick" else
+                     logged.append(e.message) if e.kind == "log" else None)
+    return sim, runner, ticks, logged
+
+
+def test_a_start_at_a_segment_restores_spindle_and_coolant_approaches_from_above_and_runs_the_rest(grbl_sim):
+    motion, _machine = _mill()
+    seg = motion.segment_names.index("part.ngc:7")  # G1 Y20, cutting at Z -1 with spindle and coolant on
+    first = motion.positions[np.flatnonzero(motion.segment == seg)[0]]
+    sim, runner, ticks, logged = _start_mid(grbl_sim, start_at=seg)
+    runner.run()
+    assert runner.state == "done"
+    trace = sim.trace
+    xyz = np.array([p for _t, p, *_s in trace])
+    at_start = int(np.flatnonzero(np.linalg.norm(xyz - first, axis=1) < 1e-3)[0])
+    approach = trace[:at_start + 1]
+    # Z goes up first (to the higher of where it was and where it goes), then across, then down on the spot
+    z_safe = max(ELSEWHERE[2], first[2])
+    across = [p for _t, p, *_s in approach if np.hypot(p[0] - first[0], p[1] - first[1]) > 1e-3]
+    assert across and min(p[2] for p in across) >= z_safe - 1e-6
+    down = [(t, p, spindle, rpm, coolant) for t, p, spindle, rpm, coolant in approach if p[2] < z_safe - 1e-6]
+    assert down and all(spindle == 3 and rpm == 1000 and coolant == 8 for _t, _p, spindle, rpm, coolant in down)
+    spindle_on = next(t for t, _p, spindle, *_r in trace if spindle == 3)
+    assert down[0][0] - spindle_on >= 1.0  # the spin-up dwell before the tool goes down
+    assert min(p[2] for _t, p, *_s in approach) >= first[2] - 1e-6  # never below the cut's depth on the way
+    # from the start on, the executed path is the uninterrupted run's, both ways
+    ours, theirs = _from(trace, first), _from(_uninterrupted(), first)
+    assert distance_to_polyline(ours, theirs).max() <= PATH_TOL
+    assert distance_to_polyline(theirs, ours).max() <= PATH_TOL
+    np.testing.assert_allclose(ours[-1], motion.positions[-1], atol=PATH_TOL)
+    # the assumptions went to the job log, and into the device log's events
+    text = " | ".join(runner.assumptions)
+    assert "started at segment 5 (part.ngc:7) at X 20.000, Y 0.000, Z -1.000 mm" in text
+    assert "output 1 on, spindle 1,000 rpm cw" in text and "approach: Z up to 3.000 mm" in text
+    assert all(a in logged for a in runner.assumptions)
+    assert [e.message for e in runner.log.events if e.kind == "restart"] == runner.assumptions
+    # ticks name the user's program: no segment on the approach, then segment 5 = line 7 and on
+    program = [s for s in ticks if s.segment is not None]
+    assert ticks[0].segment is None and program[0].segment == seg and program[0].line == 7
+    assert min(s.line for s in program) == 7  # nothing before the start line
+    progress = [s.progress for s in ticks]
+    row0 = np.flatnonzero(motion.segment == seg)[0]
+    assert progress[0] == pytest.approx(row0 / (len(motion.positions) - 1))  # where line 7 is in the program
+    assert np.all(np.diff(progress) >= 0) and progress[-1] == 1.0
+
+
+def test_a_start_at_a_gcode_line_can_be_held_on_the_approach_and_resumed(grbl_sim):
+    motion, _machine = _mill()
+    first = motion.positions[np.flatnonzero(motion.segment == motion.segment_names.index("part.ngc:11"))[0]]
+    sim, runner, ticks, logged = _start_mid(grbl_sim, start_line=11)
+    thread = threading.Thread(target=lambda: _quiet(runner.run), daemon=True)
+    thread.start()
+    _wait(lambda: abs(sim.model.position[0] - ELSEWHERE[0]) > 1.0, what="going across")
+    runner.hold()
+    _wait(lambda: runner.state == "held", 10, "held on the approach")
+    held_at = list(sim.model.position)
+    time.sleep(0.5)
+    assert sim.model.position == held_at and held_at[2] == pytest.approx(ELSEWHERE[2])  # still, still up
+    assert ticks[-1].segment is None  # on the approach, not yet in the program
+    runner.resume()
+    _wait(lambda: runner.finished, 30, "the end")
+    assert runner.state == "done"
+    assert runner.assumptions[0] == "G-code line 11 is segment 9 (part.ngc:11)"
+    ours, theirs = _from(sim.trace, first), _from(_uninterrupted(), first)
+    assert distance_to_polyline(ours, theirs).max() <= PATH_TOL
+    assert distance_to_polyline(theirs, ours).max() <= PATH_TOL
+    assert min(s.line for s in ticks if s.line is not None) == 11
+
+
+def test_a_stop_in_the_spin_up_before_the_tool_goes_down_leaves_it_up_and_outputs_off(grbl_sim):
+    sim, runner, _ticks, _logged = _start_mid(grbl_sim, start_line=11)
+    thread = threading.Thread(target=lambda: _quiet(runner.run), daemon=True)
+    thread.start()
+    _wait(lambda: sim.spindle_dir == 3, 20, "the spindle restored")
+    runner.stop()
+    _wait(lambda: runner.finished, 20, "the stop")
+    assert runner.state == "aborted" and runner.log.outcome == "aborted"
+    assert sim.spindle_dir == 5 and sim.coolant == 9 and sim.alarm == 0
+    assert min(p[2] for _t, p, *_s in sim.trace) == pytest.approx(ELSEWHERE[2])  # the tool never went down
+
+
+def test_a_start_at_a_segment_the_job_does_not_have_is_refused_before_anything_moves(grbl_sim):
     sim = grbl_sim(motion=True, accel=ACCEL)
     runner = JobRunner(Job(f"grbl:{sim.port}", Machine(period=0.001), "program", _program(), name="plotter"),
-                       start_at=1)
-    with pytest.raises(DeviceError, match=r"starting at segment 2.*nothing was moved") as err:
+                       start_at=98)
+    with pytest.raises(DeviceError, match=r"segment 99 has no setpoints") as err:
         runner.run()
     assert err.value.where == "plotter" and runner.state == "faulted"
-    assert sim.model.position == [0.0, 0.0, 0.0]
-    assert not any(b == ord("G") for _, b in sim.bytes_seen)  # no G-code line reached the board
+    assert not any(line.startswith("G") for line in sim.received)  # no G-code line reached the board

@@ -10,10 +10,10 @@ import numpy as np
 
 import flowmc
 from flowmc.motion import timelaw
+from flowmc.motion.limits import PathLimits
 from flowmc.motion.lookahead import plan_lookahead
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.path import Path
-from flowmc.motion.limits import PathLimits
 from flowmc.motion.planner import plan_smooth
 from flowmc.motion.smoothing import smooth_path
 

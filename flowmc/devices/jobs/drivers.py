@@ -15,12 +15,9 @@ def driver_for(runner, card):
         from flowmc.devices.jobs.sim_driver import SimInstant, SimStream
 
         return SimInstant(runner, card) if runner.pace == "instant" else SimStream(runner, card)
-    if runner.start_at is not None:
-        # Only the simulated card rebuilds the machine state mid-program; running the whole program
-        # instead would be motion nobody asked for.
-        raise DeviceError(f"starting at {runner.job.where(runner.start_at)} is not supported on "
-                          f"'{runner.job.device}' yet: nothing was moved; start the job from its beginning, "
-                          "or run it on the simulated card", where=runner.job.name or "job")
+    if runner.start_at is not None and runner.job.operation != "program":
+        raise DeviceError(f"only a program starts at a segment, not a '{runner.job.operation}' job: nothing was moved",
+                          where=runner.job.name or "job")
     from flowmc.devices.grbl import GrblCard
     from flowmc.devices.linuxcnc.card import LinuxCNCCard
 

@@ -9,15 +9,19 @@ is a feed hold and, once GRBL reports ``Hold:0`` (at rest on the path, position 
 soft reset at once: GRBL stops without deceleration and, as it was moving, loses its position
 (ALARM:3; home or unlock before the next job). Each status report is a tick: GRBL's machine position
 (its own setpoint; it has no encoder), the line it is executing (lines acknowledged minus the blocks
-still in its planner), the overrides and the spindle/coolant state it reports. Single block is not a
-GRBL feature: it is refused with a message.
+still in its planner, with its segment, G-code line and progress in the user's program), the overrides
+and the spindle/coolant state it reports. A start at segment N streams the approach and the program
+from there (``grbl_restart``). Single block is not a GRBL feature: it is refused with a message.
 """
 
 from __future__ import annotations
 
 import time
 
-from flowmc.devices.grbl_program import motion_gcode
+import numpy as np
+
+from flowmc.devices.grbl_program import motion_gcode, program_rows
+from flowmc.devices.jobs.grbl_restart import grbl_start
 from flowmc.devices.jobs.job import gcode_line, positions_of
 from flowmc.devices.log import DeviceLog, Event
 from flowmc.errors import DeviceError
@@ -56,13 +60,24 @@ class GrblDriver:
         self._reports = 0
 
     def run(self) -> DeviceLog:
-        card, job = self.card, self.job
-        self.lines = motion_gcode(job.motion, card.machine, job.signals, card.tolerance, card.pen,
-                                  optional_stop=self.runner.status.optional_stop)
-        self.stops = {i for i, line in enumerate(self.lines) if line.text == "M0"}
+        card, job, runner = self.card, self.job, self.runner
         streamer = card.streamer
-        streamer.poll = min(streamer.poll, POLL)
         self.events: list[Event] = []
+        optional_stop = runner.status.optional_stop
+        _pos, _dt, self.segment, *_ = program_rows(job.motion, card.machine, job.signals)
+        self.first_row = 0
+        if runner.start_at is None:
+            self.lines = motion_gcode(job.motion, card.machine, job.signals, card.tolerance, card.pen,
+                                      optional_stop=optional_stop)
+        else:  # the state at the segment rebuilt, a safe approach, then the program from there
+            self.lines, assumptions = grbl_start(job, card, runner.start_at, streamer.status(), optional_stop)
+            self.first_row = int(np.flatnonzero(self.segment == runner.start_at)[0])
+            runner.assumptions = ([runner.line_note] if runner.line_note else []) + assumptions
+            for text in runner.assumptions:
+                runner.emit("log", text)
+                self.events.append(Event("restart", 0.0, "", text))
+        self.stops = {i for i, line in enumerate(self.lines) if line.text == "M0"}
+        streamer.poll = min(streamer.poll, POLL)
         try:
             st = streamer.stream(self.lines, control=self._control)
         except _Ended as end:
@@ -149,17 +164,21 @@ class GrblDriver:
         n = len(self.job.machine.names)
         here = positions_of([pos[i] if i < len(pos) else 0.0 for i in range(n)])
         i = self._executing(st)
-        progress = 1.0 if final else i / max(len(self.lines), 1)
+        row = self.lines[i].row if self.lines and self.lines[i].row >= 0 else self.first_row
+        progress = 1.0 if final else row / max(len(self.segment) - 1, 1)  # of the program as the user has it
+        segment = int(self.segment[row]) if self.lines and self.lines[i].row >= 0 else None
         acc = str(status.get("A", ""))
         fs = status.get("FS") or [0.0, 0.0]
         outputs = {"spindle_rpm": float(fs[1]) if len(fs) > 1 and ("S" in acc or "C" in acc) else 0.0,
                    "dout": [1] if "F" in acc else [], "tool_down": "S" in acc and self.card.pen is not None}
         source = self.lines[i].source if self.lines else ""
         where = f"line {i + 1} ({source})"
+        names = self.job.segment_names
+        line = gcode_line(names[segment]) if segment is not None and segment < len(names) else None
         if self.paused is not None:  # the stop's own place and G-code line
-            source = where = self.paused
-        runner.emit("tick", t=self._t(st), commanded=here, actual=None, where=where,
-                    line=gcode_line(source), progress=progress,
+            where, line = self.paused, gcode_line(self.paused)
+        runner.emit("tick", t=self._t(st), commanded=here, actual=None, where=where, segment=segment,
+                    line=line, progress=progress,
                     time_left=self.job.duration * (1.0 - progress) * 100.0 / max(self.overrides["feed"], 1.0),
                     outputs=outputs)
 

@@ -22,6 +22,10 @@ resumes on its own at the marks still ahead; switched on in a job started withou
 hold as it enters the next segment and says so (LinuxCNC cannot stop where its program has no stop).
 A tick's place is the setpoint row the machine is at (``_reach``): the segment and G-code line of the
 user's program, progress along the rows, and time left from the plan's times at the feed override.
+
+A start at segment N hands LinuxCNC ``restart.plan_start``'s setpoints instead (``linuxcnc_restart``:
+the approach, the restored outputs and spindle, then the program from N on, with its stops); a tick
+on the approach names no segment, and from N on its row is read back as the user's program's row.
 """
 
 from __future__ import annotations
@@ -31,8 +35,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from flowmc.devices.jobs.job import gcode_line, positions_of
+from flowmc.devices.jobs.linuxcnc_restart import start_motion
 from flowmc.devices.jobs.pauses import Pause, program_pauses
 from flowmc.devices.log import DeviceLog, Event
+from flowmc.motion.trajectory import Signal
 
 __all__ = ["LinuxCNCDriver"]
 
@@ -72,19 +78,22 @@ class LinuxCNCDriver:
         self.sb_from: int | None = None  # single block switched on without marks: the segment it was in
         self.sb_ended = -1
         self.passed = -1  # the segment of the last program stop resumed from
+        self.motion, self.signals = self.job.motion, self.job.signals  # what LinuxCNC runs
+        self.original: np.ndarray | None = None  # a start at segment N: each row's row in the program (-1: approach)
+        self.first = 0  # ... and the program's row it starts at
 
     # ------------------------------------------------------------------ the program
     def _program(self) -> str:
         """LinuxCNC's program with the job's stops, and the tables that read LinuxCNC's lines back."""
-        job, card, runner = self.job, self.card, self.runner
-        motion = job.motion
+        card, runner = self.card, self.runner
+        motion, signals = self.motion, self.signals
         positions, self.period, self.axes = card.setpoints(motion)
         self.positions = np.asarray(positions, dtype=float)
         n = len(positions)
         last = max(n - 1, 1)
         seg = np.asarray(motion.segment if motion.segment is not None else np.zeros(n, dtype=np.int64))
         self.seg = seg if len(seg) == n else np.concatenate([seg[:1], seg])[:n]  # Steps: origin row first
-        merged = motion.signals.merged(job.signals)
+        merged = motion.signals.merged(signals)
         rows = np.clip(np.ceil(np.asarray(merged.t) / self.period - 1e-9).astype(int), 1, last)
         own = rows[:len(motion.signals)]
         sorted_rows = np.sort(rows)
@@ -102,7 +111,7 @@ class LinuxCNCDriver:
                 if 1 <= b < n - 1 and int(b) not in firm:
                     planned.append((int(b), 0, "M0", None, int(self.seg[b - 1])))
         planned.sort(key=lambda p: (p[0], p[1]))
-        lines, self.line_rows = card.program_lines(motion, job.signals, [(r, b, c) for r, b, c, _p, _e in planned])
+        lines, self.line_rows = card.program_lines(motion, signals, [(r, b, c) for r, b, c, _p, _e in planned])
         numbers = [i for i, text in enumerate(lines, 1) if text in ("M0", "M1")]
         self.stops = [_Stop(number, pause, ended) for number, (_r, _b, _c, pause, ended) in zip(numbers, planned)]
         return "\n".join(lines) + "\n"
@@ -125,8 +134,16 @@ class LinuxCNCDriver:
         where, line = job.where(seg), (gcode_line(names[seg]) if seg is not None and seg < len(names) else None)
         if self.paused is not None:  # stopped for the operator: the stop's own place and line (the M0, the M6)
             seg, where, line = self.paused.event.segment, self.paused.where, self.paused.line
-        progress = self.row / (n - 1) if n > 1 else 1.0
-        left = max(job.duration - self.row * self.period, 0.0) * 100.0 / self.feed
+        if self.original is None:
+            progress = self.row / (n - 1) if n > 1 else 1.0
+            left = max(job.duration - self.row * self.period, 0.0) * 100.0 / self.feed
+        else:  # started at segment N: progress in the user's program, time left of what LinuxCNC was given
+            rows = self.original  # its last row is the program's last
+            row = int(rows[min(self.row, len(rows) - 1)])
+            if row < 0:
+                seg, line, where = None, None, f"approach to {job.where(self.runner.start_at)}"
+            progress = max(row, self.first) / max(int(rows[-1]), 1)
+            left = max((n - 1 - self.row) * self.period, 0.0) * 100.0 / self.feed
         self.runner.emit("tick", **{"commanded": self.position, "actual": None, "segment": seg, "where": where,
                                     "line": line, "progress": progress, "time_left": left, **extra})
 
@@ -244,7 +261,15 @@ class LinuxCNCDriver:
         return positions_of([xyz["XYZ".index(a.upper())] for a in self.job.machine.names])
 
     def run(self) -> DeviceLog:
-        runner = self.runner
+        runner, job = self.runner, self.job
+        if runner.start_at is not None:  # the approach and the program from segment N on (linuxcnc_restart)
+            self.motion, self.original, assumptions = start_motion(job, self.card, runner.start_at)
+            self.signals = Signal()
+            self.first = int(self.original[self.original >= 0].min())
+            runner.assumptions = ([runner.line_note] if runner.line_note else []) + assumptions
+            for text in runner.assumptions:
+                runner.emit("log", text)
+                self.notes.append(Event("restart", 0.0, "", text))
         runner.emit("tick", commanded=self.position, actual=None)
         gcode = self._program()
         log = self.card.run_gcode(gcode, name="trajectory.ngc", commands=self.commands, on_event=self.on_event,
