@@ -37,6 +37,21 @@ def _within_limits(log):
     assert np.abs(a).max() <= AMAX * 1.01
 
 
+_STARTED: list[JobRunner] = []
+
+
+@pytest.fixture(autouse=True)
+def _stop_what_a_test_left():
+    """A failed check while a job is held would leave LinuxCNC held for ever (held time has no timeout):
+    stop every job a test started and did not see end."""
+    yield
+    while _STARTED:
+        runner = _STARTED.pop()
+        if not runner.wait(0.0):
+            runner.stop()
+            runner.wait(60.0)
+
+
 def _start():
     rows = int(LENGTH / SPEED / PERIOD) + 1
     pos = np.zeros((rows, 3))
@@ -46,6 +61,7 @@ def _start():
     runner = JobRunner(Job("linuxcnc", machine(), "program", motion, spindle, name="slow line"))
     ticks = []
     runner.subscribe(lambda e: ticks.append((time.monotonic(), e.status)) if e.kind == "tick" else None)
+    _STARTED.append(runner)
     threading.Thread(target=lambda: _quiet(runner.run), daemon=True).start()
     return runner, ticks
 
