@@ -100,17 +100,17 @@ class _Body:
             _, label, keyword, args = item
             if opened and label == opened[-1] and keyword in stop:
                 return k, keyword
-            if label in opened:
-                raise _NotPlain
-            if keyword == "while":
-                self.count_loop(depth, k, label, args, loops, opened)
-            elif keyword == "if":
-                self.branches(depth, k, label, args, loops, opened)
-            elif keyword in ("break", "continue"):
+            if keyword in ("break", "continue"):
                 if not loops or loops[-1] != label:
                     raise _NotPlain
                 self.count(depth, k)
                 self.line(depth, keyword)
+            elif label in opened:
+                raise _NotPlain
+            elif keyword == "while":
+                self.count_loop(depth, k, label, args, loops, opened)
+            elif keyword == "if":
+                self.branches(depth, k, label, args, loops, opened)
             elif keyword in ("return", "endsub"):
                 if label != self.label:
                     raise _NotPlain
