@@ -2,7 +2,7 @@
 
 A line that runs many times (a subroutine's, a loop's, a template shared by the lines of one shape)
 is compiled once into one Python function that evaluates its values, makes its parameter settings
-and, for the common G0/G1 line, makes the move: one call a line instead of a tree of closures
+and, for the common G0/G1 line and XY arc, makes the move: one call a line instead of a tree of closures
 called node by node. The function's text is written here from the parsed Block only: float
 operators and functions from fixed tables, word letters, and bound names (``n0``, ``n1``...) for
 every number and parameter name, which are passed in as values, never written into the text. No
@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 
 import flowmc.motion.gcode.expr as X
+from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, centre_ijk
 from flowmc.motion.gcode.codes import InterpError
 
 __all__ = ["compile_block", "value_function"]
@@ -25,6 +26,8 @@ _ARITH = {X.ADD: "+", X.SUB: "-", X.MUL: "*"}
 _COMPARE = {X.GT: ">", X.GE: ">=", X.LT: "<", X.LE: "<="}
 _INLINE_FUNCTIONS = {"SIN": "sin(radians({}))", "COS": "cos(radians({}))", "ABS": "abs({})"}
 _STRAIGHT_WORDS = frozenset("XYZF")
+_ARC_XY_WORDS = frozenset("XYZIJF")
+_AXES = frozenset("XYZ")
 # Compiled texts by text. Every number and name is bound, not written, so lines of one structure
 # (``#101 = [#102 * 0.5]`` and ``#110 = [#103 * 0.7]``) share one text and compile once.
 _CODE: dict[str, object] = {}
@@ -40,7 +43,8 @@ class _Writer:
         self.env = {"num": params.num, "number": params.number, "named": params.named, "exists": params.exists,
                     "P": params, "GL": params.globals, "S": slots, "binary": X.binary, "function": X.function,
                     "atan2_degrees": X.atan2_degrees, "param_index": X.param_index, "sin": math.sin,
-                    "cos": math.cos, "radians": math.radians, "InterpError": InterpError}
+                    "cos": math.cos, "radians": math.radians, "InterpError": InterpError,
+                    "centre_ijk": centre_ijk, "SPIRAL_WARN_MM": SPIRAL_WARN_MM}
         self.count = 0
 
     def bind(self, value) -> str:
@@ -159,6 +163,10 @@ def compile_block(block, params, computed=frozenset(), slots=None):
             (block.words or block.g) and set(block.words) <= _STRAIGHT_WORDS and \
             (not block.g or block.g[0] in (0.0, 1.0)):
         lines += _straight(dict(words), block.g[0] if block.g else None)
+    elif constant_codes and block.comment is None and not block.m and len(block.g) <= 1 and \
+            set(block.words) <= _ARC_XY_WORDS and ("I" in block.words or "J" in block.words) and \
+            (block.g or set(block.words) & _AXES) and (not block.g or block.g[0] in (2.0, 3.0)):
+        lines += _arc_xy(dict(words), block.g[0] if block.g else None)
     elif not block.words and not block.g and not block.m and block.comment is None:
         lines.append("if fast: return None")  # settings only: nothing more to do
     lines.append("return {" + ", ".join(f"{letter!r}: {text}" for letter, text in words) + f"}}, {g_text}, {m_text}")
@@ -193,6 +201,57 @@ def _straight(words: dict, g: float | None) -> list[str]:
         if g != 0.0:
             body.append("if motion == 10 and not I.feed > 0: "
                         "raise InterpError('G1 with no feed rate: program an F word first')")
-        body += ["I.arc_not_allowed = False", "I.cycle_il = None", "I._straight(x, y, z, motion == 0, src, i)",
-                 "I.motion = motion", "return None"]
+        body += ["I.arc_not_allowed = False", "I.cycle_il = None"]
+        body += _to_machine("m", "x", "y", "z")
+        body += ["I.canon.line_to(mx, my, mz, motion == 0, I.feed, I.speed * I.spindle_dir + 0.0, src.index, i + 1)",
+                 "I.x, I.y, I.z = x, y, z", "I.mx, I.my, I.mz = mx, my, mz", "I.motion = motion", "return None"]
+    return out + [f"        {line}" for line in body]
+
+
+def _to_machine(out: str, x: str, y: str, z: str) -> list[str]:
+    """``Interpreter.to_machine`` (``_straight``'s inline form when no XY rotation is in force)."""
+    return ["if I._sin == 0.0 and I._cos == 1.0:",
+            "    g92, g5x, tlo = I.g92, I.g5x, I.tlo",
+            f"    {out}x, {out}y, {out}z = ({x} + g92[0] + g5x[0] + tlo[0], {y} + g92[1] + g5x[1] + tlo[1], "
+            f"{z} + g92[2] + g5x[2] + tlo[2])",
+            "else:",
+            f"    {out}x, {out}y, {out}z = I.to_machine({x}, {y}, {z})"]
+
+
+def _arc_xy(words: dict, g: float | None) -> list[str]:
+    """The text of ``Interpreter._fast_arc`` for an I/J arc in the XY plane (incremental centre, no
+    XY rotation, no cutter compensation) with these words (letter -> value text)."""
+    out = ["if fast and I.comp_mode == 400 and I.feed_mode == 940 and not I.diameter_mode and I.plane == 2 and "
+           "I.arc_incremental and not I.arc_not_allowed and I._sin == 0.0 and I._cos == 1.0:"]
+    if g is None:
+        out += ["    motion = I.motion", "    if motion == 20 or motion == 30:"]
+    else:
+        out += [f"    motion = {30 if g == 3.0 else 20}", "    if True:"]
+    checks = " or ".join(f"{v} - {v} != 0.0" for v in words.values())
+    body = [f"if {checks}: raise InterpError('number too large')"]
+    if "F" in words:
+        f = words["F"]
+        body += [f"if {f} < 0: raise InterpError('negative F word (feed)')",
+                 f"I.feed_word = {f}", f"I.feed = {f} * I.scale / 60.0"]
+    body += ["I.cycle_il = None",
+             "name = 'G3' if motion == 30 else 'G2'",
+             "if not I.feed > 0: raise InterpError(name + ' with no feed rate: program an F word first')",
+             "su, sv, z0 = I.x, I.y, I.z", "x, y, z = su, sv, z0", "s = I.scale"]
+    axes = [a for a in "XYZ" if a in words]
+    if axes:
+        body.append("if I.incremental:")
+        body += [f"    {a.lower()} = {a.lower()} + {words[a]} * s" for a in axes]
+        body.append("else:")
+        body += [f"    {a.lower()} = {words[a]} * s" for a in axes]
+    body += [f"cu = su + {words.get('I', '0.0')} * s", f"cv = sv + {words.get('J', '0.0')} * s",
+             "diff = centre_ijk(su, sv, x, y, cu, cv, s)",
+             "if diff > SPIRAL_WARN_MM: I.warn_spiral(name, diff, src, i)",
+             "g92, g5x, tlo = I.g92, I.g5x, I.tlo",
+             "mx, my, mz = (x + g92[0] + g5x[0] + tlo[0], y + g92[1] + g5x[1] + tlo[1], "
+             "z + g92[2] + g5x[2] + tlo[2])",
+             "cx, cy, cz = (cu + g92[0] + g5x[0] + tlo[0], cv + g92[1] + g5x[1] + tlo[1], "
+             "z0 + g92[2] + g5x[2] + tlo[2])",
+             "I.canon.arc_to(mx, my, mz, (cx, cy, cz), 2, motion == 30, 0, I.feed, I.speed * I.spindle_dir + 0.0, "
+             "src.index, i + 1)",
+             "I.x, I.y, I.z = x, y, z", "I.mx, I.my, I.mz = mx, my, mz", "I.motion = motion", "return None"]
     return out + [f"        {line}" for line in body]

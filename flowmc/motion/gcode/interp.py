@@ -1602,8 +1602,7 @@ class Interpreter:
                 cv = sv + w.get(offset_letters[iv], 0.0) * s
             diff = centre_ijk(su, sv, eu, ev, cu, cv, s)
             if diff > SPIRAL_WARN_MM:
-                self.warn(src.where(i), f"{g} end point is {diff:.6f} mm off the circle through its start; "
-                                        "accepted as LinuxCNC accepts it (the arc blends its radius: a spiral)")
+                self.warn_spiral(g, diff, src, i)
         if self.feed_mode == 930:
             r = math.hypot(su - cu, sv - cv)
             a0 = math.atan2(sv - cv, su - cu)
@@ -1616,6 +1615,10 @@ class Interpreter:
         centre = list(start)
         centre[iu], centre[iv] = cu, cv
         self._emit_arc(end, centre, ccw, turns, src, i)
+
+    def warn_spiral(self, g: str, diff: float, src: Source, i: int) -> None:
+        self.warn(src.where(i), f"{g} end point is {diff:.6f} mm off the circle through its start; "
+                                "accepted as LinuxCNC accepts it (the arc blends its radius: a spiral)")
 
     def _emit_arc(self, end, centre, ccw: bool, turns: int, src: Source, i: int, plane: int | None = None) -> None:
         plane = self.plane if plane is None else plane
