@@ -20,7 +20,7 @@ import flowmc.motion.gcode.expr as X
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, centre_ijk
 from flowmc.motion.gcode.codes import InterpError
 
-__all__ = ["compile_block", "value_function"]
+__all__ = ["compile_block", "value_function", "value_list"]
 
 _ARITH = {X.ADD: "+", X.SUB: "-", X.MUL: "*"}
 _COMPARE = {X.GT: ">", X.GE: ">=", X.LT: "<", X.LE: "<="}
@@ -117,6 +117,13 @@ def value_function(node, params, computed=frozenset(), slots=None):
         return node
     writer = _Writer(params, computed, slots)
     return writer.build([f"return {writer.expr(node)}"], "value", "")
+
+
+def value_list(nodes: list, params, computed=frozenset(), slots=None):
+    """Nodes as one function of no arguments giving their values in a list, left to right: a
+    call's arguments."""
+    writer = _Writer(params, computed, slots)
+    return writer.build(["return [" + ", ".join(writer.expr(node) for node in nodes) + "]"], "values", "")
 
 
 def compile_block(block, params, computed=frozenset(), slots=None):

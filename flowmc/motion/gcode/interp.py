@@ -28,7 +28,7 @@ from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, ArcError, centre_ijk, centr
 from flowmc.motion.gcode.canon import Canon
 from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.gcode.bodies import compile_body
-from flowmc.motion.gcode.codegen import compile_block, value_function
+from flowmc.motion.gcode.codegen import compile_block, value_function, value_list
 from flowmc.motion.gcode.expr import EvalError, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
@@ -88,7 +88,7 @@ class _Frame:
     saved: list
     locals: dict
     label: object
-    call_where: str
+    return_source: Source
     loops: dict = field(default_factory=dict)
     autorestore: dict | None = None
     saved_state: dict | None = None
@@ -300,7 +300,7 @@ class Interpreter:
     def _error(self, src: Source, line: int, message: str) -> GcodeError:
         err = src.error(line, message)
         if self.frames:
-            chain = ", ".join(f.call_where for f in reversed(self.frames[-3:]))
+            chain = ", ".join(f.return_source.where(f.return_line - 1) for f in reversed(self.frames[-3:]))
             err = GcodeError(f"{err.message} [called from {chain}]", where=err.where)
         return err
 
@@ -421,6 +421,8 @@ class Interpreter:
             label, keyword, args = block.oword
             label = label if type(label) in (str, int) else value_function(label, params, computed)
             block.oword = (label, keyword, [value_function(a, params, computed) for a in args])
+            if keyword == "call":
+                block.run = value_list(args, params, computed)
         else:
             block.run = compile_block(block, params, computed)
 
@@ -492,7 +494,8 @@ class Interpreter:
             self.pc = end + 1
             return
         if keyword == "call":
-            self._call(label, [evaluate(a, self.params) for a in args], src, i)
+            run = block.run  # a compiled call's arguments in one call
+            self._call(label, run() if run is not None else [evaluate(a, self.params) for a in args], src, i)
             return
         if keyword in ("endsub", "return"):
             if not self.frames or self.frames[-1].label != label:
@@ -641,8 +644,7 @@ class Interpreter:
         for k, value in enumerate(args):
             num[k + 1] = value
         frame = _Frame(source=source, return_line=i + 1, saved=saved, locals=self.params.locals, label=label,
-                       call_where=src.where(i))
-        frame.return_source = src  # type: ignore[attr-defined]
+                       return_source=src)
         self.params.locals = {}
         self.value = 0.0
         self.value_returned = 0.0
@@ -659,7 +661,7 @@ class Interpreter:
             self.value_returned = 1.0
         if frame.autorestore is not None:
             self._restore_state(frame.autorestore)
-        self.src = frame.return_source  # type: ignore[attr-defined]
+        self.src = frame.return_source
         self.pc = frame.return_line
 
     # Blocks -------------------------------------------------------------------------------------

@@ -15,9 +15,10 @@ explains what is wrong with a line.
 from __future__ import annotations
 
 import re
-from itertools import accumulate
 
-from flowmc.motion.gcode.codegen import compile_block, value_function
+import numpy as np
+
+from flowmc.motion.gcode.codegen import compile_block, value_function, value_list
 from flowmc.motion.gcode.lexer import Block, parse_line
 
 __all__ = ["Templates"]
@@ -30,6 +31,10 @@ _BEFORE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ[+-*/=")
 _NOT_TEMPLATED = re.compile(r"[();$%]")  # comments, and what a slot or '%' could be confused with
 _LEAD_N_LINES = re.compile(r"^(/?)N\d+(?:\.\d*)?", re.MULTILINE)
 _CHUNK = 4096  # lines split at a time: a whole-text pass, bounded in memory
+_NUMERIC = np.zeros(256, dtype=bool)
+_NUMERIC[list(b"0123456789.")] = True
+_AFTER_CODE = np.zeros(256, dtype=bool)  # a number after these is part of the shape
+_AFTER_CODE[list(b"#OGM")] = True
 
 
 class Templates:
@@ -86,27 +91,60 @@ class Templates:
             if type(label) is not str and type(label) is not int:
                 label = value_function(label, params, computed, slots)
             block.oword = (label, keyword, [value_function(a, params, computed, slots) for a in args])
+            if keyword == "call":
+                block.run = value_list(args, params, computed, slots)
         else:
             block.run = compile_block(block, params, computed, slots)
         return block, slots
 
 
 def _split(src, first: int) -> tuple:
-    """Lines ``first`` to ``first + _CHUNK`` of ``src`` split into shapes and numbers in a few passes
-    over their joined text (what splitting line by line does, at a fraction of the cost): (src,
-    first, each line's shape key or None, all their numbers, where each line's numbers end)."""
+    """Lines ``first`` to ``first + _CHUNK`` of ``src`` split into shapes and numbers over their joined
+    text with numpy (what ``_LITERAL`` does line by line, at a fraction of the cost): (src, first,
+    each line's shape key or None, all their numbers, where each line's numbers end).
+
+    A number is a run of digits with at most one '.' (not '.' alone) that does not follow '#', 'O',
+    'G' or 'M'; it becomes '$' in the key. A line with a run of two or more '.' gets no key (the
+    ordinary parse explains it), nor does one with a comment, '$', '%' or a non-ASCII character."""
     lines = src.lines[first:min(first + _CHUNK, src.end)]
-    lines = ["" if _NOT_TEMPLATED.search(raw) else raw for raw in lines]
-    code = "\n".join(lines).replace(" ", "")
+    code = "\n".join(lines)
+    if _NOT_TEMPLATED.search(code) or not code.isascii():
+        code = "\n".join("" if _NOT_TEMPLATED.search(raw) or not raw.isascii() else raw for raw in lines)
+    code = code.replace(" ", "")
     if "\t" in code:
         code = code.replace("\t", "")
     code = code.upper()
-    if "N" in code:
+    if code[:1] == "N" or code[:2] == "/N" or "\nN" in code or "\n/N" in code:
         code = _LEAD_N_LINES.sub(r"\1", code)
-    parts = _LITERAL.split(code)
-    numbers = list(map(float, parts[1::2]))
-    keys: list = "$".join(parts[0::2]).split("\n")
-    ends = list(accumulate(key.count("$") for key in keys))
+    if not code.strip("\n"):
+        return src, first, [None] * _CHUNK, [], [0] * _CHUNK
+    chars = np.frombuffer(code.encode("ascii"), dtype=np.uint8)
+    n = chars.size
+    numeric = _NUMERIC[chars]
+    before = np.empty(n, dtype=np.uint8)
+    before[0] = 10
+    before[1:] = chars[:-1]
+    starts = np.flatnonzero(numeric & ~_NUMERIC[before])
+    ends = np.flatnonzero(numeric & ~np.append(numeric[1:], False)) + 1
+    dots = np.cumsum(chars == 46)
+    run_dots = dots[ends - 1] - np.where(starts > 0, dots[starts - 1], 0)
+    literal = ~_AFTER_CODE[before[starts]] & ~((ends - starts == 1) & (chars[starts] == 46)) & (run_dots <= 1)
+    newlines = np.flatnonzero(chars == 10)
+    bad_lines = np.searchsorted(newlines, starts[run_dots > 1])
+    starts, ends = starts[literal], ends[literal]
+    inside = np.bincount(starts + 1, minlength=n + 1) - np.bincount(ends, minlength=n + 1)
+    keep = np.cumsum(inside[:n]) == 0
+    marked = chars.copy()
+    marked[starts] = 36  # '$'
+    keys: list = marked[keep].tobytes().decode("ascii").split("\n")
+    spaced = np.full(n, 32, dtype=np.uint8)
+    in_number = ~keep
+    in_number[starts] = True
+    spaced[in_number] = chars[in_number]
+    numbers = list(map(float, spaced.tobytes().split()))
+    counts = np.bincount(np.searchsorted(newlines, starts), minlength=len(keys))
+    for k in bad_lines.tolist():
+        keys[k] = ""
     keys = [key or None for key in keys]
     keys += [None] * (_CHUNK - len(keys))
-    return src, first, keys, numbers, ends
+    return src, first, keys, numbers, np.cumsum(counts).tolist()
