@@ -112,7 +112,8 @@ def test_an_error_in_a_compiled_body_names_the_same_line_and_call(body, message,
 
 
 def test_an_endless_loop_in_a_compiled_body_stops_at_the_same_line(monkeypatch):
-    text = "G21 G90 F100\no<s> sub\n  o1 while [1]\n    G1 X[#1] Y0\n    #1 = [#1 + 1]\n  o1 endwhile\no<s> endsub\no<s> call\nM2\n"
+    text = ("G21 G90 F100\no<s> sub\n  o1 while [1]\n    G1 X[#1] Y0\n    #1 = [#1 + 1]\n  o1 endwhile\n"
+            "o<s> endsub\no<s> call\nM2\n")
     options = GcodeOptions(max_blocks=500)
     errors = []
     for disabled in (False, True):

@@ -15,6 +15,7 @@ values, then the settings' values, then the settings made one by one.
 from __future__ import annotations
 
 import math
+from types import CodeType
 
 import flowmc.motion.gcode.expr as X
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, centre_ijk
@@ -30,7 +31,7 @@ _ARC_XY_WORDS = frozenset("XYZIJF")
 _AXES = frozenset("XYZ")
 # Compiled texts by text. Every number and name is bound, not written, so lines of one structure
 # (``#101 = [#102 * 0.5]`` and ``#110 = [#103 * 0.7]``) share one text and compile once.
-_CODE: dict[str, object] = {}
+_CODE: dict[str, CodeType] = {}
 _MAX_CODES = 4096
 
 

@@ -25,10 +25,10 @@ import flowmc.motion.gcode.codes as C
 import flowmc.motion.gcode.expr as X
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, ArcError, centre_ijk, centre_r
-from flowmc.motion.gcode.canon import Canon
-from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.gcode.bodies import compile_body
+from flowmc.motion.gcode.canon import Canon
 from flowmc.motion.gcode.codegen import compile_block, value_function, value_list
+from flowmc.motion.gcode.codes import InterpError
 from flowmc.motion.gcode.expr import EvalError, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
