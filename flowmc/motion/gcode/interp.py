@@ -366,7 +366,8 @@ class Interpreter:
                 elif block.run is not None:
                     rest = block.run(self, src, i, True)
                     if rest is not None:
-                        self._run_values(block, *rest, src, i)
+                        words, gvals, mvals = rest
+                        self._run_values(block, words, gvals, mvals, src, i)
                 else:
                     self._block(block, src, i)
             except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
