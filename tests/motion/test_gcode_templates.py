@@ -20,7 +20,7 @@ def without_templates(monkeypatch):
     """Read with every line through the ordinary parse."""
     def read(text: str):
         with monkeypatch.context() as m:
-            m.setattr(templates.Templates, "block", lambda self, raw: None)
+            m.setattr(templates.Templates, "block", lambda self, src, i: None)
             return interpret(text, "t.ngc")
     return read
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["EvalError", "evaluate", "compile_value", "fold_binary", "fold_function", "fold_atan", "param_index", "label_number",
+__all__ = ["EvalError", "evaluate", "fold_binary", "fold_function", "fold_atan", "param_index", "label_number",
            "integer", "NUM_PARAMS"]
 
 PARAM, NAMED, FUNC, ATAN2, EXISTS, BIN, NEG, INDEX = range(8)
@@ -180,7 +180,7 @@ def fold_atan(y, x):
 
 def evaluate(node, params) -> float:
     """The value of a node; ``params`` gives ``number(i)``, ``named(name)`` and ``exists(name)``.
-    A compiled node (``compile_value``) is called instead."""
+    A compiled node (``codegen.value_function``) is called instead."""
     if type(node) is float:
         return node
     if type(node) is not tuple:
@@ -205,94 +205,4 @@ def evaluate(node, params) -> float:
         return 1.0 if params.exists(node[1]) else 0.0
     if kind == INDEX:
         return float(param_index(evaluate(node[1], params)))
-    raise EvalError(f"bad expression node {kind}")
-
-
-def compile_value(node, params, computed=frozenset(), slots=None):
-    """A node as a closure over ``params`` (a float stays a float): what a line run many times (in a
-    loop or a subroutine) keeps, so each run skips walking the tree. Same results and errors as
-    ``evaluate``; sums and products are not checked for overflow here: the interpreter refuses a
-    word or a parameter setting that is not a finite number. With ``slots`` (a list), the named
-    parameter ``$k`` reads ``slots[k]``: a line template's numbers (see ``templates``)."""
-    if type(node) is float:
-        return node
-    kind = node[0]
-    if kind == PARAM:
-        index = node[1]
-        if type(index) is int:
-            if index in computed:
-                number = params.number
-                return lambda: number(index)
-            num = params.num
-            return lambda: num[index]
-        f = compile_value(index, params, computed, slots)
-        number = params.number
-        return lambda: number(param_index(f() if callable(f) else f))
-    if kind == NAMED:
-        named, name = params.named, node[1]
-        if slots is not None and name[:1] == "$":
-            k = int(name[1:])
-            return lambda: slots[k]
-        if name[:1] == "_":
-            table = params.globals  # set ones first; ``named`` answers the rest (predefined, errors)
-
-            def global_value():
-                value = table.get(name)
-                return value if value is not None else named(name)
-            return global_value
-
-        def local_value():
-            value = params.locals.get(name)
-            return value if value is not None else named(name)
-        return local_value
-    if kind == NEG:
-        f = compile_value(node[1], params, computed, slots)
-        if type(f) is float:
-            return -f
-        return lambda: -f()
-    if kind == BIN:
-        op = node[1]
-        a = compile_value(node[2], params, computed, slots)
-        b = compile_value(node[3], params, computed, slots)
-        if type(a) is float:
-            ka = a
-
-            def a():
-                return ka
-        if type(b) is float:
-            kb = b
-            if op == ADD:
-                return lambda: a() + kb
-            if op == SUB:
-                return lambda: a() - kb
-            if op == MUL:
-                return lambda: a() * kb
-
-            def b():
-                return kb
-        if op == ADD:
-            return lambda: a() + b()
-        if op == SUB:
-            return lambda: a() - b()
-        if op == MUL:
-            return lambda: a() * b()
-        return lambda: binary(op, a(), b())
-    if kind == FUNC:
-        name = node[1]
-        f = compile_value(node[2], params, computed, slots)
-        if type(f) is float:
-            return function(name, f)
-        return lambda: function(name, f())
-    if kind == ATAN2:
-        fy = compile_value(node[1], params, computed, slots)
-        fx = compile_value(node[2], params, computed, slots)
-        fy = fy if callable(fy) else (lambda v=fy: v)
-        fx = fx if callable(fx) else (lambda v=fx: v)
-        return lambda: atan2_degrees(fy(), fx())
-    if kind == EXISTS:
-        exists, name = params.exists, node[1]
-        return lambda: 1.0 if exists(name) else 0.0
-    if kind == INDEX:
-        f = compile_value(node[1], params, computed, slots)
-        return (INDEX, f)
     raise EvalError(f"bad expression node {kind}")

@@ -26,6 +26,7 @@ __all__ = ["plain_lines", "run_plain"]
 _ALLOWED_BYTES = np.zeros(256, dtype=bool)
 for _c in b"0123456789.+- \t\r" + b"GMXYZIJKRFSPEQN" + b"gmxyzijkrfspeqn":
     _ALLOWED_BYTES[_c] = True
+_ALLOWED = bytes(_c for _c in range(256) if _ALLOWED_BYTES[_c])
 _COMMENT = re.compile(r"\([^()\n]*\)")
 _SEMICOLON = re.compile(r";[^\n]*")
 _ACTIVE = re.compile(r"(?im)[(;]\s*(?:msg|debug|print|log|probe)")
@@ -59,13 +60,9 @@ def plain_lines(lines: list[str]) -> tuple[np.ndarray, list[str]]:
             active.add(m.start())
         text = _SEMICOLON.sub("", _COMMENT.sub("", text))
     clean = text.split("\n")
-    data = text.encode("utf-8", errors="replace")
-    chars = np.frombuffer(data, dtype=np.uint8)
-    newline = np.flatnonzero(chars == 10)
-    bad = ~_ALLOWED_BYTES[chars]
-    bad[newline] = False
-    out = np.ones(len(lines), dtype=bool)
-    out[np.searchsorted(newline, np.flatnonzero(bad))] = False
+    # What is left of a line once its allowed bytes are deleted: nothing, when it is plain.
+    rest = text.encode("utf-8", errors="replace").translate(None, _ALLOWED)
+    out = np.array([not r for r in rest.split(b"\n")], dtype=bool)
     if active:
         starts = np.cumsum([0] + [len(s) + 1 for s in lines[:-1]])
         for pos in active:

@@ -25,15 +25,17 @@ import flowmc.motion.gcode.codes as C
 import flowmc.motion.gcode.expr as X
 from flowmc.errors import GcodeError
 from flowmc.motion.gcode.arcs import SPIRAL_WARN_MM, ArcError, centre_ijk, centre_r
+from flowmc.motion.gcode.bodies import compile_body
 from flowmc.motion.gcode.canon import Canon
+from flowmc.motion.gcode.codegen import compile_block, value_function, value_list
 from flowmc.motion.gcode.codes import InterpError
-from flowmc.motion.gcode.expr import EvalError, compile_value, evaluate
+from flowmc.motion.gcode.expr import EvalError, evaluate
 from flowmc.motion.gcode.fastpath import run_plain
 from flowmc.motion.gcode.lathe import LATHE_CYCLES, run_g7x
 from flowmc.motion.gcode.lexer import Block
 from flowmc.motion.gcode.params import _COMPUTED, Parameters
 from flowmc.motion.gcode.program import Source, read_program_file, subroutine_file
-from flowmc.motion.gcode.templates import Templates, evaluator
+from flowmc.motion.gcode.templates import Templates
 from flowmc.motion.gcode.threading_cycle import run_g76
 from flowmc.motion.gcode.tools import Tool, ToolTable
 from flowmc.motion.path import PLANES, PathEvent
@@ -86,7 +88,7 @@ class _Frame:
     saved: list
     locals: dict
     label: object
-    call_where: str
+    return_source: Source
     loops: dict = field(default_factory=dict)
     autorestore: dict | None = None
     saved_state: dict | None = None
@@ -128,6 +130,7 @@ class Interpreter:
         self.blocks_run = 0
         self.ended = False
         self.subs: dict = {}  # label -> (source, line of 'sub')
+        self.bodies: dict = {}  # (file index, line of 'sub') -> its compiled body, or None (see ``bodies``)
         self.value = 0.0
         self.value_returned = 0.0
         self.pending_message = ""
@@ -297,12 +300,12 @@ class Interpreter:
     def _error(self, src: Source, line: int, message: str) -> GcodeError:
         err = src.error(line, message)
         if self.frames:
-            chain = ", ".join(f.call_where for f in reversed(self.frames[-3:]))
+            chain = ", ".join(f.return_source.where(f.return_line - 1) for f in reversed(self.frames[-3:]))
             err = GcodeError(f"{err.message} [called from {chain}]", where=err.where)
         return err
 
     def _loop(self) -> None:
-        max_segments = self.options.max_segments or budget.cap("segments")
+        max_segments = self.max_segments = self.options.max_segments or budget.cap("segments")
         self.max_blocks = self.options.max_blocks or 10 * budget.cap("segments")
         block_delete = self.options.block_delete
         canon = self.canon
@@ -341,12 +344,9 @@ class Interpreter:
             if self.frames or self.loops:
                 block = src.cache.get(i, _UNREAD)
                 if block is _UNREAD:
-                    block = src.parse(i)
-                    if block is not None and (not block.const or block.oword is not None):
-                        self._compile(block)
-                    src.cache[i] = block
+                    block = self.cached_block(src, i)
             else:
-                block = templates.block(src.lines[i])
+                block = templates.block(src, i)
                 if block is None:
                     block = src.parse(i)
             if block is None:
@@ -361,12 +361,46 @@ class Interpreter:
             try:
                 if block.oword is not None:
                     self._oword(block, src, i)
+                    if block.oword[1] == "call":
+                        self._run_body()
+                elif block.run is not None:
+                    rest = block.run(self, src, i, True)
+                    if rest is not None:
+                        words, gvals, mvals = rest
+                        self._run_values(block, words, gvals, mvals, src, i)
                 else:
                     self._block(block, src, i)
             except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
                 raise self._error(src, i, str(exc)) from None
             if canon.sealed + len(canon.kind) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
+
+    def cached_block(self, src: Source, i: int) -> Block | None:
+        """Line i of src parsed and, when it has values to work out or is an O-word, compiled; kept,
+        as a loop or a subroutine runs it again."""
+        block = src.cache.get(i, _UNREAD)
+        if block is _UNREAD:
+            block = src.parse(i)
+            if block is not None and (not block.const or block.oword is not None):
+                self._compile(block)
+            src.cache[i] = block
+        return block
+
+    def _run_body(self) -> None:
+        """Right after a call: the subroutine's body as one compiled function when it has one."""
+        src, at = self.src, self.pc - 1
+        key = (src.index, at)
+        body = self.bodies.get(key, _UNREAD)
+        if body is _UNREAD:
+            body = self.bodies[key] = compile_body(self, src, at, self.frames[-1].label, _COMPUTED)
+        if body is not None:
+            body(self, src)
+
+    def over_lines(self, src: Source, i: int) -> GcodeError:
+        return self._error(src, i, _too_many_lines(self.max_blocks))
+
+    def over_segments(self, src: Source, i: int) -> GcodeError:
+        return self._error(src, i, _too_many_segments(self.max_segments))
 
     def count_block(self, src: Source, i: int) -> None:
         """One more line run; the budget stops endless loops."""
@@ -382,18 +416,16 @@ class Interpreter:
                                                       or canon.now_an))
 
     def _compile(self, block) -> None:
-        """Turn a kept line's expressions into closures (it will run again: a loop or a subroutine)."""
+        """Turn a kept line into a generated function (it will run again: a loop or a subroutine)."""
         params, computed = self.params, _COMPUTED
-        block.words = {k: compile_value(v, params, computed) for k, v in block.words.items()}
-        block.g = [compile_value(v, params, computed) for v in block.g]
-        block.m = [compile_value(v, params, computed) for v in block.m]
-        block.assign = [(t if type(t) is not tuple else compile_value(t, params, computed),
-                         compile_value(v, params, computed)) for t, v in block.assign]
         if block.oword is not None:
             label, keyword, args = block.oword
-            label = label if type(label) in (str, int) else compile_value(label, params, computed)
-            block.oword = (label, keyword, [compile_value(a, params, computed) for a in args])
-        block.run = evaluator(block)
+            label = label if type(label) in (str, int) else value_function(label, params, computed)
+            block.oword = (label, keyword, [value_function(a, params, computed) for a in args])
+            if keyword == "call":
+                block.run = value_list(args, params, computed)
+        else:
+            block.run = compile_block(block, params, computed)
 
     def _finish(self, src: Source, line: int) -> None:
         if self.comp is not None:
@@ -463,7 +495,8 @@ class Interpreter:
             self.pc = end + 1
             return
         if keyword == "call":
-            self._call(label, [evaluate(a, self.params) for a in args], src, i)
+            run = block.run  # a compiled call's arguments in one call
+            self._call(label, run() if run is not None else [evaluate(a, self.params) for a in args], src, i)
             return
         if keyword in ("endsub", "return"):
             if not self.frames or self.frames[-1].label != label:
@@ -612,8 +645,7 @@ class Interpreter:
         for k, value in enumerate(args):
             num[k + 1] = value
         frame = _Frame(source=source, return_line=i + 1, saved=saved, locals=self.params.locals, label=label,
-                       call_where=src.where(i))
-        frame.return_source = src  # type: ignore[attr-defined]
+                       return_source=src)
         self.params.locals = {}
         self.value = 0.0
         self.value_returned = 0.0
@@ -630,12 +662,16 @@ class Interpreter:
             self.value_returned = 1.0
         if frame.autorestore is not None:
             self._restore_state(frame.autorestore)
-        self.src = frame.return_source  # type: ignore[attr-defined]
+        self.src = frame.return_source
         self.pc = frame.return_line
 
     # Blocks -------------------------------------------------------------------------------------
     def _block(self, b, src: Source, i: int) -> None:
         words, gvals, mvals = self.values(b)
+        self._run_values(b, words, gvals, mvals, src, i)
+
+    def _run_values(self, b, words: dict, gvals: list, mvals: list, src: Source, i: int) -> None:
+        """A block's evaluated words and G and M values, its settings made."""
         if b.comment is not None:
             self._comment(b.comment, src, i)
         if not words and not gvals and not mvals:
@@ -693,7 +729,7 @@ class Interpreter:
             words, gvals, mvals = b.words, b.g, b.m
             assigns = b.assign
         elif b.run is not None:
-            words, gvals, mvals, assigns = b.run()
+            return b.run(self, None, 0, False)
         else:
             words = {k: (v if type(v) is float else v() if type(v) is not tuple else evaluate(v, params))
                      for k, v in b.words.items()}
@@ -1569,8 +1605,7 @@ class Interpreter:
                 cv = sv + w.get(offset_letters[iv], 0.0) * s
             diff = centre_ijk(su, sv, eu, ev, cu, cv, s)
             if diff > SPIRAL_WARN_MM:
-                self.warn(src.where(i), f"{g} end point is {diff:.6f} mm off the circle through its start; "
-                                        "accepted as LinuxCNC accepts it (the arc blends its radius: a spiral)")
+                self.warn_spiral(g, diff, src, i)
         if self.feed_mode == 930:
             r = math.hypot(su - cu, sv - cv)
             a0 = math.atan2(sv - cv, su - cu)
@@ -1583,6 +1618,10 @@ class Interpreter:
         centre = list(start)
         centre[iu], centre[iv] = cu, cv
         self._emit_arc(end, centre, ccw, turns, src, i)
+
+    def warn_spiral(self, g: str, diff: float, src: Source, i: int) -> None:
+        self.warn(src.where(i), f"{g} end point is {diff:.6f} mm off the circle through its start; "
+                                "accepted as LinuxCNC accepts it (the arc blends its radius: a spiral)")
 
     def _emit_arc(self, end, centre, ccw: bool, turns: int, src: Source, i: int, plane: int | None = None) -> None:
         plane = self.plane if plane is None else plane

@@ -39,7 +39,7 @@ class Block:
         self.oword: tuple | None = None
         self.delete = False
         self.const = True  # every value is a plain float (no parameter reads)
-        self.run = None  # once compiled: a function giving (words, g values, m values, settings)
+        self.run = None  # once compiled: codegen.compile_block's function, or a call's argument values (value_list)
 
 
 _NUMBER = re.compile(r"\d+\.?\d*|\.\d+")

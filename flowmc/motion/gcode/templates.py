@@ -2,7 +2,7 @@
 
 A generated program repeats a few line shapes with new numbers (``G1 X[#100 * COS[#101] + 3.026]``,
 then ``... + 0.541]``). A line's template is its code with each number written as a slot ``#<$k>``;
-the template is parsed once by the lexer and compiled into closures that read the slots, so each
+the template is parsed once by the lexer and compiled into a function that reads the slots, so each
 later line of that shape only splits out its numbers. Parameter numbers (``#12``), G, M and O-word
 numbers stay part of the shape; a leading N word is dropped from it.
 
@@ -16,17 +16,25 @@ from __future__ import annotations
 
 import re
 
-from flowmc.motion.gcode.expr import compile_value
-from flowmc.motion.gcode.lexer import Block, parse_line, squeeze
+import numpy as np
+
+from flowmc.motion.gcode.codegen import compile_block, value_function, value_list
+from flowmc.motion.gcode.lexer import Block, parse_line
 
 __all__ = ["Templates"]
 
 _LITERAL = re.compile(r"(?<![#OGM\d.])(\d+\.?\d*|\.\d+)")
-_LEAD_N = re.compile(r"/?N\d+(?:\.\d*)?")
 _SLOT_IN_NAME = re.compile(r"<[^>]*#<\$")
 _NEW = (None, None)  # a shape not seen yet
 _MAX_SHAPES = 20_000  # a program of ever new shapes gains nothing here: past this, new shapes parse as usual
 _BEFORE = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ[+-*/=")
+_NOT_TEMPLATED = re.compile(r"[();$%]")  # comments, and what a slot or '%' could be confused with
+_LEAD_N_LINES = re.compile(r"^(/?)N\d+(?:\.\d*)?", re.MULTILINE)
+_CHUNK = 4096  # lines split at a time: a whole-text pass, bounded in memory
+_NUMERIC = np.zeros(256, dtype=bool)
+_NUMERIC[list(b"0123456789.")] = True
+_AFTER_CODE = np.zeros(256, dtype=bool)  # a number after these is part of the shape
+_AFTER_CODE[list(b"#OGM")] = True
 
 
 class Templates:
@@ -36,31 +44,29 @@ class Templates:
         self.params = params
         self.computed = computed
         self.shapes: dict[str, tuple | None] = {}
+        self.chunk: tuple | None = None  # the lines last split (``_split``)
 
-    def block(self, raw: str) -> Block | None:
-        """The Block of a line through its template, its slots filled; None when the line is not
-        one to take this way (the caller parses it as usual)."""
-        if "(" in raw or ";" in raw or ")" in raw or "$" in raw or "%" in raw:
+    def block(self, src, i: int) -> Block | None:
+        """The Block of line ``i`` of ``src`` through its template, its slots filled; None when the line
+        is not one to take this way (the caller parses it as usual)."""
+        chunk = self.chunk
+        if chunk is None or chunk[0] is not src or not 0 <= i - chunk[1] < _CHUNK:
+            chunk = self.chunk = _split(src, i - i % _CHUNK)
+        k = i - chunk[1]
+        key = chunk[2][k]
+        if key is None:
             return None
-        code = squeeze(raw)
-        if not code:
-            return None
-        if code[0] == "N" or code[0] == "/":
-            m = _LEAD_N.match(code)
-            if m is not None:
-                code = ("/" if code[0] == "/" else "") + code[m.end():]
-        parts = _LITERAL.split(code)
-        key = "$".join(parts[0::2])
         shape = self.shapes.get(key, _NEW)
         if shape is _NEW:
             if len(self.shapes) >= _MAX_SHAPES:
                 return None
-            shape = self.shapes[key] = self._compile(parts[0::2])
+            shape = self.shapes[key] = self._compile(key.split("$"))
         if shape is None:
             return None
         block, slots = shape
         if slots is not None:
-            slots[:] = map(float, parts[1::2])
+            ends = chunk[4]
+            slots[:] = chunk[3][ends[k] - len(slots):ends[k]]
         return block
 
     def _compile(self, texts: list[str]):
@@ -80,63 +86,65 @@ class Templates:
         block.const = False
         slots: list[float] = [0.0] * (len(texts) - 1)
         params, computed = self.params, self.computed
-
-        def c(value):
-            return compile_value(value, params, computed, slots)
-
-        block.words = {k: c(v) for k, v in block.words.items()}
-        block.g = [c(v) for v in block.g]
-        block.m = [c(v) for v in block.m]
-        block.assign = [(t if type(t) is not tuple else c(t), c(v)) for t, v in block.assign]
         if block.oword is not None:
             label, keyword, args = block.oword
             if type(label) is not str and type(label) is not int:
-                label = c(label)
-            block.oword = (label, keyword, [c(a) for a in args])
-        block.run = evaluator(block)
+                label = value_function(label, params, computed, slots)
+            block.oword = (label, keyword, [value_function(a, params, computed, slots) for a in args])
+            if keyword == "call":
+                block.run = value_list(args, params, computed, slots)
+        else:
+            block.run = compile_block(block, params, computed, slots)
         return block, slots
 
 
-def _call(value):
-    return value if callable(value) else (lambda: value)
+def _split(src, first: int) -> tuple:
+    """Lines ``first`` to ``first + _CHUNK`` of ``src`` split into shapes and numbers over their joined
+    text with numpy (what ``_LITERAL`` does line by line, at a fraction of the cost): (src, first,
+    each line's shape key or None, all their numbers, where each line's numbers end).
 
-
-def _words(keys: tuple, fs: tuple):
-    """A function building the words dict from its value functions (spelt out for up to 6 words)."""
-    n = len(keys)
-    if n == 0:
-        return dict
-    if n > 6:
-        return lambda: dict(zip(keys, [f() for f in fs]))
-    k1, k2, k3, k4, k5, k6 = keys + ("",) * (6 - n)
-    f1, f2, f3, f4, f5, f6 = fs + (None,) * (6 - n)
-    return (None,
-            lambda: {k1: f1()},
-            lambda: {k1: f1(), k2: f2()},
-            lambda: {k1: f1(), k2: f2(), k3: f3()},
-            lambda: {k1: f1(), k2: f2(), k3: f3(), k4: f4()},
-            lambda: {k1: f1(), k2: f2(), k3: f3(), k4: f4(), k5: f5()},
-            lambda: {k1: f1(), k2: f2(), k3: f3(), k4: f4(), k5: f5(), k6: f6()})[n]
-
-
-def evaluator(block: Block):
-    """A compiled block's values in one call: (words, G values, M values, parameter settings), what
-    ``Interpreter.values`` otherwise works out item by item. Computed targets (``#[..] =``) are left
-    to it (None). Constant G and M lists are handed out as they are (the interpreter only reads them)."""
-    if any(type(t) is tuple for t, _ in block.assign):
-        return None
-    words = _words(tuple(block.words), tuple(_call(v) for v in block.words.values()))
-    g, m = block.g, block.m
-    constant = all(type(v) is float for v in g) and all(type(v) is float for v in m)
-    if constant and not block.assign:
-        def constant_codes():
-            return words(), g, m, ()
-        return constant_codes
-    fg = tuple(_call(v) for v in g)
-    fm = tuple(_call(v) for v in m)
-    targets = tuple(t for t, _ in block.assign)
-    fa = tuple(_call(v) for _, v in block.assign)
-
-    def run():
-        return words(), [f() for f in fg], [f() for f in fm], list(zip(targets, [f() for f in fa]))
-    return run
+    A number is a run of digits with at most one '.' (not '.' alone) that does not follow '#', 'O',
+    'G' or 'M'; it becomes '$' in the key. A line with a run of two or more '.' gets no key (the
+    ordinary parse explains it), nor does one with a comment, '$', '%' or a non-ASCII character."""
+    lines = src.lines[first:min(first + _CHUNK, src.end)]
+    code = "\n".join(lines)
+    if _NOT_TEMPLATED.search(code) or not code.isascii():
+        code = "\n".join("" if _NOT_TEMPLATED.search(raw) or not raw.isascii() else raw for raw in lines)
+    code = code.replace(" ", "")
+    if "\t" in code:
+        code = code.replace("\t", "")
+    code = code.upper()
+    if code[:1] == "N" or code[:2] == "/N" or "\nN" in code or "\n/N" in code:
+        code = _LEAD_N_LINES.sub(r"\1", code)
+    if not code.strip("\n"):
+        return src, first, [None] * _CHUNK, [], [0] * _CHUNK
+    chars = np.frombuffer(code.encode("ascii"), dtype=np.uint8)
+    n = chars.size
+    numeric = _NUMERIC[chars]
+    before = np.empty(n, dtype=np.uint8)
+    before[0] = 10
+    before[1:] = chars[:-1]
+    starts = np.flatnonzero(numeric & ~_NUMERIC[before])
+    ends = np.flatnonzero(numeric & ~np.append(numeric[1:], False)) + 1
+    dots = np.cumsum(chars == 46)
+    run_dots = dots[ends - 1] - np.where(starts > 0, dots[starts - 1], 0)
+    literal = ~_AFTER_CODE[before[starts]] & ~((ends - starts == 1) & (chars[starts] == 46)) & (run_dots <= 1)
+    newlines = np.flatnonzero(chars == 10)
+    bad_lines = np.searchsorted(newlines, starts[run_dots > 1])
+    starts, ends = starts[literal], ends[literal]
+    inside = np.bincount(starts + 1, minlength=n + 1) - np.bincount(ends, minlength=n + 1)
+    keep = np.cumsum(inside[:n]) == 0
+    marked = chars.copy()
+    marked[starts] = 36  # '$'
+    keys: list = marked[keep].tobytes().decode("ascii").split("\n")
+    spaced = np.full(n, 32, dtype=np.uint8)
+    in_number = ~keep
+    in_number[starts] = True
+    spaced[in_number] = chars[in_number]
+    numbers = list(map(float, spaced.tobytes().split()))
+    counts = np.bincount(np.searchsorted(newlines, starts), minlength=len(keys))
+    for k in bad_lines.tolist():
+        keys[k] = ""
+    keys = [key or None for key in keys]
+    keys += [None] * (_CHUNK - len(keys))
+    return src, first, keys, numbers, np.cumsum(counts).tolist()
