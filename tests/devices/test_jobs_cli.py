@@ -20,6 +20,9 @@ def _on_a_terminal(args, interrupt_after: float | None = None, timeout: float = 
     output first shows ``once`` (so a loaded machine cannot send it before the job runs)."""
     pid, fd = pty.fork()
     if pid == 0:  # the child: flowmc on the terminal
+        # as a terminal's foreground job has it: a suite started in the background (`pytest &`) ignores
+        # SIGINT, and Python keeps an inherited SIG_IGN, so Ctrl-C would not reach flowmc at all
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
         os.execv(sys.executable, [sys.executable, "-m", "flowmc", *args])
     out, t0, seen, sent = b"", time.monotonic(), None, False
     while time.monotonic() - t0 < timeout:
