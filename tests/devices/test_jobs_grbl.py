@@ -36,10 +36,11 @@ def _program():
     return result.output("plan", "trajectory")
 
 
-def _start(grbl_sim):
+def _start(grbl_sim, motion=None, **options):
     sim = grbl_sim(motion=True, accel=ACCEL)
     machine = Machine(period=0.001)
-    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", _program(), name="plotter"))
+    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", _program() if motion is None else motion,
+                           name="plotter"), **options)
     ticks = []
     runner.subscribe(lambda e: ticks.append((time.monotonic(), e.status)) if e.kind == "tick" else None)
     thread = threading.Thread(target=lambda: _quiet(runner.run), daemon=True)
@@ -266,3 +267,95 @@ def test_a_start_at_a_segment_the_job_does_not_have_is_refused_before_anything_m
         runner.run()
     assert err.value.where == "plotter" and runner.state == "faulted"
     assert not any(line.startswith("G") for line in sim.received)  # no G-code line reached the board
+
+
+# ---------------------------------------------------------------- single block (streamed a block at a time)
+
+def _states(runner):
+    """The (state, message) changes of ``runner`` from now on, as a list that fills."""
+    seen = []
+    runner.subscribe(lambda e: seen.append((e.status.state, e.message)) if e.kind == "state" else None)
+    return seen
+
+
+def _held_at_rest(sim, point):
+    """The simulator's trace ends standing at ``point`` and stays there (nothing moves while held)."""
+    n = len(sim.trace)
+    np.testing.assert_allclose(sim.trace[-1][1], point, atol=1e-3)
+    assert not sim.model.busy
+    time.sleep(0.5)
+    assert len(sim.trace) == n and list(sim.model.position) == list(sim.trace[-1][1])
+
+
+def test_single_block_from_start_holds_at_rest_at_each_block_end_and_resume_runs_the_next(grbl_sim):
+    sim, runner, _ticks = _start(grbl_sim, single_block=True)
+    for k, corner in enumerate([(60.0, 0.0, 0.0), (60.0, 60.0, 0.0)]):
+        _wait(lambda: runner.state == "held", 20, f"held after block {k + 1}")
+        assert runner.status.message == f"single block: held at the end of segment {k + 1} (point {k + 1})"
+        _held_at_rest(sim, corner)
+        # the next side never started: the trace has nothing past this corner
+        assert max(p[1] for _t, p, *_s in sim.trace) <= corner[1] + 1e-9
+        runner.resume()
+        _wait(lambda: runner.state != "held", 5, "resumed")
+    _wait(lambda: runner.finished, 20, "the end")
+    assert runner.state == "done"
+    np.testing.assert_allclose(sim.model.position, [0.0, 60.0, 0.0], atol=1e-3)
+    assert [e.message for e in runner.log.events if e.kind == "pause"] == [
+        "single block: held at the end of segment 1 (point 1)", "single block: held at the end of segment 2 (point 2)"]
+
+
+def test_single_block_switched_off_while_held_runs_the_rest_to_the_end(grbl_sim):
+    sim, runner, _ticks = _start(grbl_sim, single_block=True)
+    _wait(lambda: runner.state == "held", 20, "held after the first block")
+    _held_at_rest(sim, (60.0, 0.0, 0.0))
+    states = _states(runner)
+    runner.set_single_block(False)
+    time.sleep(0.3)
+    assert runner.state == "held" and len(sim.trace) and sim.model.position == [60.0, 0.0, 0.0]  # Resume goes on
+    runner.resume()
+    _wait(lambda: runner.finished, 20, "the end")
+    assert runner.state == "done" and [s for s, _m in states] == ["running", "done"]  # no hold on the way
+    np.testing.assert_allclose(sim.model.position, [0.0, 60.0, 0.0], atol=1e-3)
+    np.testing.assert_allclose(sim.trace[-1][1], [0.0, 60.0, 0.0], atol=1e-3)
+
+
+def _vertex(i):
+    return (4.0 * i, 4.0 * (i % 2), 0.0)
+
+
+def _zigzag():
+    """40 sides (zigzag, 4 mm steps within the simulator's travel) at 40 mm/s: more G-code lines than
+    GRBL's buffers hold, so some wait to be sent."""
+    pts = [_vertex(i) for i in range(41)]
+    g = flowmc.GraphBuilder(title="zigzag")
+    path = g.add("path.polyline", id="zigzag", points=pts, feed=40.0)
+    plan = g.add("interp.time_division", id="plan", profile="trapezoid")
+    g.wire(path.path, plan.path)
+    result = flowmc.Runtime().run(g.build())
+    assert result.ok, result.errors
+    return result.output("plan", "trajectory")
+
+
+def test_single_block_switched_on_mid_job_holds_at_a_block_end_and_stop_from_there_resets(grbl_sim):
+    motion = _zigzag()
+    sim, runner, _ticks = _start(grbl_sim, motion=motion)
+    _wait(lambda: sim.model.position[0] > 10.0, 20, "the third side under way")
+    runner.set_single_block(True)
+    _wait(lambda: runner.state == "held", 30, "held at a block end")
+    # held at a vertex: the end of the segment the message names, at rest, not at the path's end
+    k = int(runner.status.message.rsplit("segment ", 1)[1].split(" ")[0])
+    assert runner.status.message == f"single block: held at the end of segment {k} (point {k})"
+    assert 3 < k < 40
+    end = motion.positions[np.flatnonzero(motion.segment == k - 1)[-1]]
+    np.testing.assert_allclose(end, _vertex(k), atol=1e-9)
+    _held_at_rest(sim, end)
+    runner.resume()  # the next block, then held at its end
+    _wait(lambda: runner.state == "held" and sim.model.position[0] > end[0] + 2.0, 20, "held after the next block")
+    assert runner.status.message == f"single block: held at the end of segment {k + 1} (point {k + 1})"
+    _held_at_rest(sim, _vertex(k + 1))
+    runner.stop()  # from a single-block hold: GRBL is Idle, the soft reset at once
+    _wait(lambda: runner.finished, 20, "the stop")
+    assert runner.state == "aborted" and "stopped by the operator" in runner.message
+    assert sim.alarm == 0 and sim.spindle_dir == 5 and sim.coolant == 9
+    assert [b for _t, b in sim.bytes_seen if b in (ord("!"), 0x18)][-1:] == [0x18]
+    assert any(e.kind == "safe" for e in runner.log.events)

@@ -58,6 +58,9 @@ class GrblDriver:
         self.ended: _Ended | None = None
         self.paused: str | None = None  # the program stop GRBL is paused on (its line's source)
         self._reports = 0
+        self.until: int | None = None  # single block: the lines sent up to this one (its block's first)
+        self.block_held = False  # held at a block's end by single block (GRBL Idle, nothing queued)
+        self._acked_report: int | None = None  # reports seen when the block's last line was acknowledged
 
     def run(self) -> DeviceLog:
         card, job, runner = self.card, self.job, self.runner
@@ -77,9 +80,13 @@ class GrblDriver:
                 runner.emit("log", text)
                 self.events.append(Event("restart", 0.0, "", text))
         self.stops = {i for i, line in enumerate(self.lines) if line.text == "M0"}
+        self.blocks = self._block_starts()
+        self.single_block = runner.status.single_block
+        if self.single_block:
+            self.until = self._next_block(1)
         streamer.poll = min(streamer.poll, POLL)
         try:
-            st = streamer.stream(self.lines, control=self._control)
+            st = streamer.stream(self.lines, control=self._control, until=lambda: self.until)
         except _Ended as end:
             return self._finish(end)
         except DeviceError as err:  # an error, an alarm or a lost port: the streamer has stopped GRBL
@@ -112,6 +119,57 @@ class GrblDriver:
         elif self.runner.state == "stopping" and state.startswith("Hold:0"):
             self.card.streamer.soft_reset()  # at rest: the reset keeps the position and clears the rest
             raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
+        elif self.runner.state == "running" and self._block_done(st):
+            self.block_held = True
+            seg = self.line_segment[self.until - 1]
+            text = f"single block: held at the end of {self.job.where(seg)}"
+            self.events.append(Event("pause", self._t(st), "", text))
+            self._tick(st)
+            self.runner.set_state("held", text)
+
+    # ------------------------------------------------------------------ single block
+    def _block_starts(self) -> list[int]:
+        """The first line of each block after the first, and each line's segment (``self.line_segment``).
+
+        A move's segment is that of the row it ends at (the next move's start row; the last row for the
+        last move), a signal's or stop's code that of the row it is given at; the preamble and a start's
+        approach (row -1) go with the block after them."""
+        segs: list[int | None] = [None] * len(self.lines)
+        end = len(self.segment) - 1
+        for i in range(len(self.lines) - 1, -1, -1):
+            line = self.lines[i]
+            if line.row < 0:
+                continue
+            if line.source.startswith("signal ") or line.text == "M0":
+                segs[i] = int(self.segment[line.row])
+            else:
+                segs[i], end = int(self.segment[end]), line.row
+        self.line_segment = segs
+        starts, last = [], None
+        for i, seg in enumerate(segs):
+            if seg is None:
+                continue
+            if last is not None and seg != last:
+                starts.append(i)
+            last = seg
+        return starts
+
+    def _next_block(self, sent: int) -> int | None:
+        """The first block start at or after line ``sent`` (None: none, the rest streams to the end)."""
+        return next((b for b in self.blocks if b >= sent), None)
+
+    def _block_done(self, st) -> bool:
+        """Single block: every line up to the block's end acknowledged, and a report taken after the last
+        ``ok`` says Idle with nothing in the planner (the block executed, the machine at rest)."""
+        if self.until is None or self.block_held or st.acked < self.until:
+            self._acked_report = None
+            return False
+        if self._acked_report is None:
+            self._acked_report = len(st.reports)  # a report from before the last ok may predate its move
+            return False
+        buf = st.status.get("Bf") or [0]
+        return (len(st.reports) > self._acked_report and st.status.get("state", "").startswith("Idle")
+                and int(buf[0]) >= PLANNER_BLOCKS)
 
     def _command(self, name: str, value, st) -> None:
         runner, streamer = self.runner, self.card.streamer
@@ -123,10 +181,17 @@ class GrblDriver:
         if name == "hold" and state == "running":
             streamer.realtime(b"!")
             runner.set_state("holding", f"feed hold at {self._where(st)}")
+        elif name == "resume" and state == "held" and self.block_held:  # GRBL is Idle: stream the next block
+            self.block_held = False
+            self.until = self._next_block(self.until + 1) if self.single_block else None
+            runner.set_state("running", f"resumed at {self._where(st)}")
         elif name == "resume" and state in ("holding", "held"):
             self.paused = None
             streamer.realtime(b"~")
             runner.set_state("running", f"resumed at {self._where(st)}")
+        elif name == "stop" and state == "held" and self.block_held:  # Idle, at rest: the soft reset at once
+            streamer.soft_reset()
+            raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
         elif name == "stop" and state in ("running", "holding", "held"):
             streamer.realtime(b"!")
             runner.set_state("stopping", f"stopping at {self._where(st)}")
@@ -135,7 +200,10 @@ class GrblDriver:
             self.overrides[name] = float(value)
             runner.emit("log", f"{name} override {value:g} %", **{name: float(value)})
         elif name == "single_block":
-            runner.emit("log", "single block is not a GRBL feature: ignored")
+            self.single_block = bool(value)
+            if not self.block_held:  # held: Resume reads the switch
+                self.until = self._next_block(st.sent) if value else None
+            runner.emit("log", f"single block {'on' if value else 'off'}", single_block=bool(value))
         elif name == "optional_stop":
             runner.emit("log", "the optional stop (M1) is set at Start on GRBL (GRBL ignores M1): unchanged")
         self.events.append(Event("job", self._t(st), "", f"{name} at {self._where(st)}"))
