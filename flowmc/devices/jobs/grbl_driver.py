@@ -11,7 +11,17 @@ soft reset at once: GRBL stops without deceleration and, as it was moving, loses
 (its own setpoint; it has no encoder), the line it is executing (lines acknowledged minus the blocks
 still in its planner, with its segment, G-code line and progress in the user's program), the overrides
 and the spindle/coolant state it reports. A start at segment N streams the approach and the program
-from there (``grbl_restart``). Single block is not a GRBL feature: it is refused with a message.
+from there (``grbl_restart``).
+
+Single block is not a GRBL feature, so the driver single-steps as senders do: a block is the lines
+of one program segment (``_block_starts``). With single block on, only the current block is
+streamed; once all its lines are acknowledged and a status report taken after the last ``ok`` says
+Idle with an empty planner, the job is ``held`` at the block's end point ("single block: held at the
+end of segment ...") and Resume streams the next block. Switched on mid-job, streaming stops at the
+first block boundary not yet sent: the lines already in GRBL's buffers run, and the job holds at the
+end of the block of the last line sent (with 15 planner blocks and 128 bytes buffered, possibly some
+blocks after the one moving when the switch came). Switched off while held, Resume streams the rest.
+Stop from a single-block hold is the soft reset at once (GRBL is Idle, at rest: no alarm).
 """
 
 from __future__ import annotations
