@@ -359,3 +359,35 @@ def test_single_block_switched_on_mid_job_holds_at_a_block_end_and_stop_from_the
     assert sim.alarm == 0 and sim.spindle_dir == 5 and sim.coolant == 9
     assert [b for _t, b in sim.bytes_seen if b in (ord("!"), 0x18)][-1:] == [0x18]
     assert any(e.kind == "safe" for e in runner.log.events)
+
+
+def test_single_block_with_a_start_at_a_gcode_line_and_a_program_stop(grbl_sim):
+    """Started at line 11 with single block on, on a program with an M0 at line 12."""
+    text = MILL.replace("G1 X30 Y20\n", "M0 (check the cut)\nG1 X30 Y20\n")
+    machine = Machine()
+    motion = plan_stop_and_go(parse_gcode(text, "part.ngc"), machine).trajectory
+    sim = grbl_sim(motion=True, accel=ACCEL)
+    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", motion, name="mill"), start_line=11,
+                       single_block=True)
+    thread = threading.Thread(target=lambda: _quiet(runner.run), daemon=True)
+    thread.start()
+    holds = []
+    while True:
+        _wait(lambda: runner.state == "held" or runner.finished, 30, "held or the end")
+        if runner.finished:
+            break
+        time.sleep(0.3)
+        holds.append((runner.status.message, tuple(sim.model.position), sim.model.busy))
+        runner.resume()
+        _wait(lambda: runner.state != "held", 5, "resumed")
+    assert runner.state == "done", runner.status.message
+    np.testing.assert_allclose(sim.model.position, motion.positions[-1], atol=1e-3)
+    # a hold at the end of each block from the start line on, the program's M0 as its own stop between
+    assert [m for m, _p, _busy in holds] == [
+        "single block: held at the end of segment 9 (part.ngc:11)",
+        "program pause (M0) at part.ngc:12; Resume carries on",
+        "single block: held at the end of segment 11 (part.ngc:13)",
+        "single block: held at the end of segment 12 (part.ngc:14)"]
+    for (_m, at, busy), end in zip(holds, [(40, 10, -1), (40, 10, -1), (30, 20, -1), (30, 20, 5)]):
+        assert not busy and np.linalg.norm(np.subtract(at, end)) <= PATH_TOL  # at rest at the block's end
+    assert runner.assumptions[0] == "G-code line 11 is segment 9 (part.ngc:11)"

@@ -141,9 +141,11 @@ class GrblDriver:
     def _block_starts(self) -> list[int]:
         """The first line of each block after the first, and each line's segment (``self.line_segment``).
 
-        A move's segment is that of the row it ends at (the next move's start row; the last row for the
-        last move), a signal's or stop's code that of the row it is given at; the preamble and a start's
-        approach (row -1) go with the block after them."""
+        A move's segment is that of the row before the one it ends at (the end row is the next move's
+        start row, the last row for the last move; a planned segment's first row has already left its
+        start, so a move ending there finishes the segment before, as the simulated card's block end
+        does); a signal's or stop's code has the segment of the row it is given at (it comes after the
+        move ending there). The preamble and a start's approach (row -1) go with the first block."""
         segs: list[int | None] = [None] * len(self.lines)
         end = len(self.segment) - 1
         for i in range(len(self.lines) - 1, -1, -1):
@@ -153,7 +155,7 @@ class GrblDriver:
             if line.source.startswith("signal ") or line.text == "M0":
                 segs[i] = int(self.segment[line.row])
             else:
-                segs[i], end = int(self.segment[end]), line.row
+                segs[i], end = int(self.segment[max(end - 1, line.row)]), line.row
         self.line_segment = segs
         starts, last = [], None
         for i, seg in enumerate(segs):
