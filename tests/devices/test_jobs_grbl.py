@@ -391,3 +391,20 @@ def test_single_block_with_a_start_at_a_gcode_line_and_a_program_stop(grbl_sim):
     for (_m, at, busy), end in zip(holds, [(40, 10, -1), (40, 10, -1), (30, 20, -1), (30, 20, 5)]):
         assert not busy and np.linalg.norm(np.subtract(at, end)) <= PATH_TOL  # at rest at the block's end
     assert runner.assumptions[0] == "G-code line 11 is segment 9 (part.ngc:11)"
+
+
+def test_single_block_a_feed_hold_inside_a_block_resumes_to_its_end_and_estop_from_there_resets(grbl_sim):
+    sim, runner, _ticks = _start(grbl_sim, single_block=True)
+    _wait(lambda: sim.model.position[0] > 20.0, 10, "the first side under way")
+    runner.hold()
+    _wait(lambda: runner.state == "held", 10, "the feed hold")
+    assert runner.status.message.startswith("held at line") and 20.0 < sim.model.position[0] < 60.0
+    runner.resume()  # the rest of the block, then the single-block hold at its end
+    _wait(lambda: runner.status.message.startswith("single block"), 20, "held at the block's end")
+    assert runner.status.message == "single block: held at the end of segment 1 (point 1)"
+    _held_at_rest(sim, (60.0, 0.0, 0.0))
+    runner.estop()
+    _wait(lambda: runner.finished, 20, "the e-stop")
+    assert runner.state == "aborted" and runner.log.outcome == "estop"
+    assert sim.alarm == 0 and sim.spindle_dir == 5  # the reset came at rest: GRBL kept its position
+    np.testing.assert_allclose(sim.model.position, [60.0, 0.0, 0.0], atol=1e-3)

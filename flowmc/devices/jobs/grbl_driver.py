@@ -126,10 +126,10 @@ class GrblDriver:
             self.events.append(Event("pause", self._t(st), "", text))
             self._tick(st)
             self.runner.set_state("held", text)
-        elif self.runner.state == "stopping" and state.startswith("Hold:0"):
+        elif self.runner.state == "stopping" and (state.startswith("Hold:0") or self._block_done(st)):
             self.card.streamer.soft_reset()  # at rest: the reset keeps the position and clears the rest
             raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
-        elif self.runner.state == "running" and self._block_done(st):
+        elif self.runner.state in ("running", "holding") and self._block_done(st):  # a hold as the block ended
             self.block_held = True
             seg = self.line_segment[self.until - 1]
             text = f"single block: held at the end of {self.job.where(seg)}"
