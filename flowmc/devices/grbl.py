@@ -185,12 +185,13 @@ class GrblStreamer:
         raise DeviceError(f"no status report within {self.timeout:g} s", where=self.port)
 
     # ------------------------------------------------------------ streaming
-    def stream(self, lines: list[ProgramLine], wait_idle: bool = True, control=None) -> Stream:
+    def stream(self, lines: list[ProgramLine], wait_idle: bool = True, control=None, until=None) -> Stream:
         """Send ``lines`` with character counting; raise DeviceError on error, alarm, silence or a lost port.
 
         ``control(stream)``: called between reads (every 50 ms or sooner) and after each status report, so a
         job can send real-time bytes and follow the reports; what it raises ends the stream. The error's
-        ``.stream`` holds what was seen up to then.
+        ``.stream`` holds what was seen up to then. ``until()``: how many lines may be sent by now (None:
+        all; a job's single block holds the rest back while status polling and ``control`` go on).
         """
         import serial
 
@@ -206,7 +207,8 @@ class GrblStreamer:
         last_poll = last_answer = time.monotonic()
         try:
             while st.acked < len(lines):
-                while st.sent < len(lines) and buffered + len(data[st.sent]) <= RX_BUFFER_SIZE:
+                end = len(lines) if until is None or until() is None else min(until(), len(lines))
+                while st.sent < end and buffered + len(data[st.sent]) <= RX_BUFFER_SIZE:
                     self._write(data[st.sent])
                     in_flight.append(len(data[st.sent]))
                     buffered += len(data[st.sent])

@@ -36,10 +36,11 @@ def _program():
     return result.output("plan", "trajectory")
 
 
-def _start(grbl_sim):
+def _start(grbl_sim, motion=None, **options):
     sim = grbl_sim(motion=True, accel=ACCEL)
     machine = Machine(period=0.001)
-    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", _program(), name="plotter"))
+    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", _program() if motion is None else motion,
+                           name="plotter"), **options)
     ticks = []
     runner.subscribe(lambda e: ticks.append((time.monotonic(), e.status)) if e.kind == "tick" else None)
     thread = threading.Thread(target=lambda: _quiet(runner.run), daemon=True)
@@ -266,3 +267,144 @@ def test_a_start_at_a_segment_the_job_does_not_have_is_refused_before_anything_m
         runner.run()
     assert err.value.where == "plotter" and runner.state == "faulted"
     assert not any(line.startswith("G") for line in sim.received)  # no G-code line reached the board
+
+
+# ---------------------------------------------------------------- single block (streamed a block at a time)
+
+def _states(runner):
+    """The (state, message) changes of ``runner`` from now on, as a list that fills."""
+    seen = []
+    runner.subscribe(lambda e: seen.append((e.status.state, e.message)) if e.kind == "state" else None)
+    return seen
+
+
+def _held_at_rest(sim, point):
+    """The simulator's trace ends standing at ``point`` and stays there (nothing moves while held)."""
+    n = len(sim.trace)
+    np.testing.assert_allclose(sim.trace[-1][1], point, atol=1e-3)
+    assert not sim.model.busy
+    time.sleep(0.5)
+    assert len(sim.trace) == n and list(sim.model.position) == list(sim.trace[-1][1])
+
+
+def test_single_block_from_start_holds_at_rest_at_each_block_end_and_resume_runs_the_next(grbl_sim):
+    sim, runner, _ticks = _start(grbl_sim, single_block=True)
+    for k, corner in enumerate([(60.0, 0.0, 0.0), (60.0, 60.0, 0.0)]):
+        _wait(lambda: runner.state == "held", 20, f"held after block {k + 1}")
+        assert runner.status.message == f"single block: held at the end of segment {k + 1} (point {k + 1})"
+        _held_at_rest(sim, corner)
+        # the next side never started: the trace has nothing past this corner
+        assert max(p[1] for _t, p, *_s in sim.trace) <= corner[1] + 1e-9
+        runner.resume()
+        _wait(lambda: runner.state != "held", 5, "resumed")
+    _wait(lambda: runner.finished, 20, "the end")
+    assert runner.state == "done"
+    np.testing.assert_allclose(sim.model.position, [0.0, 60.0, 0.0], atol=1e-3)
+    assert [e.message for e in runner.log.events if e.kind == "pause"] == [
+        "single block: held at the end of segment 1 (point 1)", "single block: held at the end of segment 2 (point 2)"]
+
+
+def test_single_block_switched_off_while_held_runs_the_rest_to_the_end(grbl_sim):
+    sim, runner, _ticks = _start(grbl_sim, single_block=True)
+    _wait(lambda: runner.state == "held", 20, "held after the first block")
+    _held_at_rest(sim, (60.0, 0.0, 0.0))
+    states = _states(runner)
+    runner.set_single_block(False)
+    time.sleep(0.3)
+    assert runner.state == "held" and len(sim.trace) and sim.model.position == [60.0, 0.0, 0.0]  # Resume goes on
+    runner.resume()
+    _wait(lambda: runner.finished, 20, "the end")
+    assert runner.state == "done" and [s for s, _m in states] == ["running", "done"]  # no hold on the way
+    np.testing.assert_allclose(sim.model.position, [0.0, 60.0, 0.0], atol=1e-3)
+    np.testing.assert_allclose(sim.trace[-1][1], [0.0, 60.0, 0.0], atol=1e-3)
+
+
+def _vertex(i):
+    return (4.0 * i, 4.0 * (i % 2), 0.0)
+
+
+def _zigzag():
+    """40 sides (zigzag, 4 mm steps within the simulator's travel) at 40 mm/s: more G-code lines than
+    GRBL's buffers hold, so some wait to be sent."""
+    pts = [_vertex(i) for i in range(41)]
+    g = flowmc.GraphBuilder(title="zigzag")
+    path = g.add("path.polyline", id="zigzag", points=pts, feed=40.0)
+    plan = g.add("interp.time_division", id="plan", profile="trapezoid")
+    g.wire(path.path, plan.path)
+    result = flowmc.Runtime().run(g.build())
+    assert result.ok, result.errors
+    return result.output("plan", "trajectory")
+
+
+def test_single_block_switched_on_mid_job_holds_at_a_block_end_and_stop_from_there_resets(grbl_sim):
+    motion = _zigzag()
+    sim, runner, _ticks = _start(grbl_sim, motion=motion)
+    _wait(lambda: sim.model.position[0] > 10.0, 20, "the third side under way")
+    runner.set_single_block(True)
+    _wait(lambda: runner.state == "held", 30, "held at a block end")
+    # held at a vertex: the end of the segment the message names, at rest, not at the path's end
+    k = int(runner.status.message.rsplit("segment ", 1)[1].split(" ")[0])
+    assert runner.status.message == f"single block: held at the end of segment {k} (point {k})"
+    assert 3 < k < 40
+    end = motion.positions[np.flatnonzero(motion.segment == k - 1)[-1]]
+    np.testing.assert_allclose(end, _vertex(k), atol=1e-9)
+    _held_at_rest(sim, end)
+    runner.resume()  # the next block, then held at its end
+    _wait(lambda: runner.state == "held" and sim.model.position[0] > end[0] + 2.0, 20, "held after the next block")
+    assert runner.status.message == f"single block: held at the end of segment {k + 1} (point {k + 1})"
+    _held_at_rest(sim, _vertex(k + 1))
+    runner.stop()  # from a single-block hold: GRBL is Idle, the soft reset at once
+    _wait(lambda: runner.finished, 20, "the stop")
+    assert runner.state == "aborted" and "stopped by the operator" in runner.message
+    assert sim.alarm == 0 and sim.spindle_dir == 5 and sim.coolant == 9
+    assert [b for _t, b in sim.bytes_seen if b in (ord("!"), 0x18)][-1:] == [0x18]
+    assert any(e.kind == "safe" for e in runner.log.events)
+
+
+def test_single_block_with_a_start_at_a_gcode_line_and_a_program_stop(grbl_sim):
+    """Started at line 11 with single block on, on a program with an M0 at line 12."""
+    text = MILL.replace("G1 X30 Y20\n", "M0 (check the cut)\nG1 X30 Y20\n")
+    machine = Machine()
+    motion = plan_stop_and_go(parse_gcode(text, "part.ngc"), machine).trajectory
+    sim = grbl_sim(motion=True, accel=ACCEL)
+    runner = JobRunner(Job(f"grbl:{sim.port}", machine, "program", motion, name="mill"), start_line=11,
+                       single_block=True)
+    thread = threading.Thread(target=lambda: _quiet(runner.run), daemon=True)
+    thread.start()
+    holds = []
+    while True:
+        _wait(lambda: runner.state == "held" or runner.finished, 30, "held or the end")
+        if runner.finished:
+            break
+        time.sleep(0.3)
+        holds.append((runner.status.message, tuple(sim.model.position), sim.model.busy))
+        runner.resume()
+        _wait(lambda: runner.state != "held", 5, "resumed")
+    assert runner.state == "done", runner.status.message
+    np.testing.assert_allclose(sim.model.position, motion.positions[-1], atol=1e-3)
+    # a hold at the end of each block from the start line on, the program's M0 as its own stop between
+    assert [m for m, _p, _busy in holds] == [
+        "single block: held at the end of segment 9 (part.ngc:11)",
+        "program pause (M0) at part.ngc:12; Resume carries on",
+        "single block: held at the end of segment 11 (part.ngc:13)",
+        "single block: held at the end of segment 12 (part.ngc:14)"]
+    for (_m, at, busy), end in zip(holds, [(40, 10, -1), (40, 10, -1), (30, 20, -1), (30, 20, 5)]):
+        assert not busy and np.linalg.norm(np.subtract(at, end)) <= PATH_TOL  # at rest at the block's end
+    assert runner.assumptions[0] == "G-code line 11 is segment 9 (part.ngc:11)"
+
+
+def test_single_block_a_feed_hold_inside_a_block_resumes_to_its_end_and_estop_from_there_resets(grbl_sim):
+    sim, runner, _ticks = _start(grbl_sim, single_block=True)
+    _wait(lambda: sim.model.position[0] > 20.0, 10, "the first side under way")
+    runner.hold()
+    _wait(lambda: runner.state == "held", 10, "the feed hold")
+    assert runner.status.message.startswith("held at line") and 20.0 < sim.model.position[0] < 60.0
+    runner.resume()  # the rest of the block, then the single-block hold at its end
+    _wait(lambda: runner.status.message.startswith("single block"), 20, "held at the block's end")
+    assert runner.status.message == "single block: held at the end of segment 1 (point 1)"
+    _held_at_rest(sim, (60.0, 0.0, 0.0))
+    runner.estop()
+    _wait(lambda: runner.finished, 20, "the e-stop")
+    assert runner.state == "aborted" and runner.log.outcome == "estop"
+    assert sim.alarm == 0 and sim.spindle_dir == 5  # the reset came at rest: GRBL kept its position
+    np.testing.assert_allclose(sim.model.position, [60.0, 0.0, 0.0], atol=1e-3)

@@ -11,7 +11,17 @@ soft reset at once: GRBL stops without deceleration and, as it was moving, loses
 (its own setpoint; it has no encoder), the line it is executing (lines acknowledged minus the blocks
 still in its planner, with its segment, G-code line and progress in the user's program), the overrides
 and the spindle/coolant state it reports. A start at segment N streams the approach and the program
-from there (``grbl_restart``). Single block is not a GRBL feature: it is refused with a message.
+from there (``grbl_restart``).
+
+Single block is not a GRBL feature, so the driver single-steps as senders do: a block is the lines
+of one program segment (``_block_starts``). With single block on, only the current block is
+streamed; once all its lines are acknowledged and a status report taken after the last ``ok`` says
+Idle with an empty planner, the job is ``held`` at the block's end point ("single block: held at the
+end of segment ...") and Resume streams the next block. Switched on mid-job, streaming stops at the
+first block boundary not yet sent: the lines already in GRBL's buffers run, and the job holds at the
+end of the block of the last line sent (with 15 planner blocks and 128 bytes buffered, possibly some
+blocks after the one moving when the switch came). Switched off while held, Resume streams the rest.
+Stop from a single-block hold is the soft reset at once (GRBL is Idle, at rest: no alarm).
 """
 
 from __future__ import annotations
@@ -58,6 +68,9 @@ class GrblDriver:
         self.ended: _Ended | None = None
         self.paused: str | None = None  # the program stop GRBL is paused on (its line's source)
         self._reports = 0
+        self.until: int | None = None  # single block: the lines sent up to this one (its block's first)
+        self.block_held = False  # held at a block's end by single block (GRBL Idle, nothing queued)
+        self._acked_report: int | None = None  # reports seen when the block's last line was acknowledged
 
     def run(self) -> DeviceLog:
         card, job, runner = self.card, self.job, self.runner
@@ -77,9 +90,13 @@ class GrblDriver:
                 runner.emit("log", text)
                 self.events.append(Event("restart", 0.0, "", text))
         self.stops = {i for i, line in enumerate(self.lines) if line.text == "M0"}
+        self.blocks = self._block_starts()
+        self.single_block = runner.status.single_block
+        if self.single_block:
+            self.until = self._next_block(1)
         streamer.poll = min(streamer.poll, POLL)
         try:
-            st = streamer.stream(self.lines, control=self._control)
+            st = streamer.stream(self.lines, control=self._control, until=lambda: self.until)
         except _Ended as end:
             return self._finish(end)
         except DeviceError as err:  # an error, an alarm or a lost port: the streamer has stopped GRBL
@@ -109,9 +126,62 @@ class GrblDriver:
             self.events.append(Event("pause", self._t(st), "", text))
             self._tick(st)
             self.runner.set_state("held", text)
-        elif self.runner.state == "stopping" and state.startswith("Hold:0"):
+        elif self.runner.state == "stopping" and (state.startswith("Hold:0") or self._block_done(st)):
             self.card.streamer.soft_reset()  # at rest: the reset keeps the position and clears the rest
             raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
+        elif self.runner.state in ("running", "holding") and self._block_done(st):  # a hold as the block ended
+            self.block_held = True
+            seg = self.line_segment[self.until - 1]
+            text = f"single block: held at the end of {self.job.where(seg)}"
+            self.events.append(Event("pause", self._t(st), "", text))
+            self._tick(st)
+            self.runner.set_state("held", text)
+
+    # ------------------------------------------------------------------ single block
+    def _block_starts(self) -> list[int]:
+        """The first line of each block after the first, and each line's segment (``self.line_segment``).
+
+        A move's segment is that of the row before the one it ends at (the end row is the next move's
+        start row, the last row for the last move; a planned segment's first row has already left its
+        start, so a move ending there finishes the segment before, as the simulated card's block end
+        does); a signal's or stop's code has the segment of the row it is given at (it comes after the
+        move ending there). The preamble and a start's approach (row -1) go with the first block."""
+        segs: list[int | None] = [None] * len(self.lines)
+        end = len(self.segment) - 1
+        for i in range(len(self.lines) - 1, -1, -1):
+            line = self.lines[i]
+            if line.row < 0:
+                continue
+            if line.source.startswith("signal ") or line.text == "M0":
+                segs[i] = int(self.segment[line.row])
+            else:
+                segs[i], end = int(self.segment[max(end - 1, line.row)]), line.row
+        self.line_segment = segs
+        starts, last = [], None
+        for i, seg in enumerate(segs):
+            if seg is None:
+                continue
+            if last is not None and seg != last:
+                starts.append(i)
+            last = seg
+        return starts
+
+    def _next_block(self, sent: int) -> int | None:
+        """The first block start at or after line ``sent`` (None: none, the rest streams to the end)."""
+        return next((b for b in self.blocks if b >= sent), None)
+
+    def _block_done(self, st) -> bool:
+        """Single block: every line up to the block's end acknowledged, and a report taken after the last
+        ``ok`` says Idle with nothing in the planner (the block executed, the machine at rest)."""
+        if self.until is None or self.block_held or st.acked < self.until:
+            self._acked_report = None
+            return False
+        if self._acked_report is None:
+            self._acked_report = len(st.reports)  # a report from before the last ok may predate its move
+            return False
+        buf = st.status.get("Bf") or [0]
+        return (len(st.reports) > self._acked_report and st.status.get("state", "").startswith("Idle")
+                and int(buf[0]) >= PLANNER_BLOCKS)
 
     def _command(self, name: str, value, st) -> None:
         runner, streamer = self.runner, self.card.streamer
@@ -123,10 +193,17 @@ class GrblDriver:
         if name == "hold" and state == "running":
             streamer.realtime(b"!")
             runner.set_state("holding", f"feed hold at {self._where(st)}")
+        elif name == "resume" and state == "held" and self.block_held:  # GRBL is Idle: stream the next block
+            self.block_held = False
+            self.until = self._next_block(self.until + 1) if self.single_block else None
+            runner.set_state("running", f"resumed at {self._where(st)}")
         elif name == "resume" and state in ("holding", "held"):
             self.paused = None
             streamer.realtime(b"~")
             runner.set_state("running", f"resumed at {self._where(st)}")
+        elif name == "stop" and state == "held" and self.block_held:  # Idle, at rest: the soft reset at once
+            streamer.soft_reset()
+            raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
         elif name == "stop" and state in ("running", "holding", "held"):
             streamer.realtime(b"!")
             runner.set_state("stopping", f"stopping at {self._where(st)}")
@@ -135,7 +212,10 @@ class GrblDriver:
             self.overrides[name] = float(value)
             runner.emit("log", f"{name} override {value:g} %", **{name: float(value)})
         elif name == "single_block":
-            runner.emit("log", "single block is not a GRBL feature: ignored")
+            self.single_block = bool(value)
+            if not self.block_held:  # held: Resume reads the switch
+                self.until = self._next_block(st.sent) if value else None
+            runner.emit("log", f"single block {'on' if value else 'off'}", single_block=bool(value))
         elif name == "optional_stop":
             runner.emit("log", "the optional stop (M1) is set at Start on GRBL (GRBL ignores M1): unchanged")
         self.events.append(Event("job", self._t(st), "", f"{name} at {self._where(st)}"))
