@@ -131,7 +131,9 @@ class GrblDriver:
             raise _Ended("aborted", f"stopped by the operator at {self._where(st)}")
         elif self.runner.state in ("running", "holding") and self._block_done(st):  # a hold as the block ended
             self.block_held = True
-            seg = self.line_segment[self.until - 1]
+            end = self.until
+            assert end is not None  # _block_done: only while single block holds lines back
+            seg = self.line_segment[end - 1]
             text = f"single block: held at the end of {self.job.where(seg)}"
             self.events.append(Event("pause", self._t(st), "", text))
             self._tick(st)
@@ -195,7 +197,9 @@ class GrblDriver:
             runner.set_state("holding", f"feed hold at {self._where(st)}")
         elif name == "resume" and state == "held" and self.block_held:  # GRBL is Idle: stream the next block
             self.block_held = False
-            self.until = self._next_block(self.until + 1) if self.single_block else None
+            end = self.until
+            assert end is not None  # held by single block: lines were held back from there
+            self.until = self._next_block(end + 1) if self.single_block else None
             runner.set_state("running", f"resumed at {self._where(st)}")
         elif name == "resume" and state in ("holding", "held"):
             self.paused = None
