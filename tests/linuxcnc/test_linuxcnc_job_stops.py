@@ -43,9 +43,10 @@ def _job() -> Job:
     return Job("linuxcnc", machine(), "program", motion, name="square")
 
 
-def _run(on_held=None, **options):
-    """Run the job; Resume HOLD s after every held (``on_held(runner, event)`` first). (runner, held, ticks)."""
-    runner = JobRunner(_job(), **options)
+def _run_job(job: Job, on_held=None, on_tick=None, **options):
+    """Run ``job``; Resume HOLD s after every held (``on_held(runner, event)`` first, ``on_tick(runner,
+    status)`` on every tick). (runner, held, ticks)."""
+    runner = JobRunner(job, **options)
     held, ticks = [], []
 
     def later(event):
@@ -57,6 +58,8 @@ def _run(on_held=None, **options):
     def listen(event):
         if event.kind == "tick":
             ticks.append(event.status)
+            if on_tick is not None:
+                on_tick(runner, event.status)
         elif event.kind == "state" and event.status.state == "held":
             held.append(event)
             threading.Thread(target=later, args=(event,), daemon=True).start()
@@ -66,6 +69,11 @@ def _run(on_held=None, **options):
     assert runner.state == "done", runner.message
     assert not live_linuxcnc_processes()
     return runner, held, ticks
+
+
+def _run(on_held=None, **options):
+    """The square program's job, run as ``_run_job`` does."""
+    return _run_job(_job(), on_held, **options)
 
 
 def _rest(log, point):
@@ -155,27 +163,9 @@ def _block_ends(runner):
 def _blocks(on_tick=None, on_held=None, **options):
     """The three sides of SQUARE as blocks; Resume HOLD s after every held. (runner, held)."""
     motion = plan_lookahead(parse_gcode(SQUARE, "sq.ngc"), machine()).trajectory
-    runner = JobRunner(Job("linuxcnc", machine(), "program", motion, name="blocks"), **options)
-    held = []
-
-    def later(event):
-        if on_held is not None:
-            on_held(runner, event)
-        time.sleep(HOLD)
-        runner.resume()
-
-    def listen(event):
-        if event.kind == "tick" and on_tick is not None:
-            on_tick(runner, event.status)
-        elif event.kind == "state" and event.status.state == "held":
-            held.append(event)
-            threading.Thread(target=later, args=(event,), daemon=True).start()
-
-    runner.subscribe(listen)
-    runner.run()
-    assert runner.state == "done", runner.message
+    job = Job("linuxcnc", machine(), "program", motion, name="blocks")
+    runner, held, _ticks = _run_job(job, on_held, on_tick, **options)
     np.testing.assert_allclose(runner.log.end_position, (0.0, 3.0, 0.0), atol=TOL)
-    assert not live_linuxcnc_processes()
     return runner, held
 
 
