@@ -15,9 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from flowmc.devices.grbl_program import ProgramLine, decimate, motion_gcode, program_rows, signal_code
-from flowmc.devices.jobs.pauses import last_tool_before
-from flowmc.devices.jobs.restart import PLUNGE_SHARE, StartPlan, plan_start
-from flowmc.errors import DeviceError
+from flowmc.devices.jobs.restart import PLUNGE_SHARE, StartPlan, plan_job_start
 
 __all__ = ["grbl_start", "grbl_outputs"]
 
@@ -78,21 +76,14 @@ def grbl_start(job, card, start_segment: int, status: dict, optional_stop: bool 
     signals = sorted(((int(r), str(k), int(c), float(v)) for r, k, c, v in
                       zip(sig_rows, sig.kind, sig.channel, sig.value) if k != "tool" or pen is not None),
                      key=lambda s: s[0])
-    try:
-        plan = plan_start(nominal, np.asarray(seg), signals, np.zeros(len(pos), dtype=bool), here, machine,
-                          grbl_outputs(status), start_segment=start_segment, where=job.where)
-    except ValueError as exc:
-        raise DeviceError(str(exc), where=job.name or "job") from None
+    plan = plan_job_start(job, nominal, np.asarray(seg), signals, np.zeros(len(pos), dtype=bool), here, machine,
+                          grbl_outputs(status), start_segment)
     where = job.where(start_segment)
     vmax_z = float(machine.column("vmax")[names.index("Z")]) if "Z" in names else None
     approach = _approach(plan, names, vmax_z, pen, card.tolerance, machine.period, where)
     lines = motion_gcode(motion, machine, job.signals, card.tolerance, pen, optional_stop,
                          start_row=plan.program_row, approach=approach)
     assumptions = list(plan.assumptions)
-    tool = last_tool_before(motion, start_segment)
-    if tool is not None:
-        assumptions.append(f"assumed: tool T{tool.tool} is loaded (the last tool change before it, "
-                           f"{job.where(tool.segment)})")
     if approach:
         assumptions.append(f"sent to GRBL as: {'; '.join(line.text for line in approach)} (G0 at GRBL's own "
                            "rapid rates, which it plans within its own acceleration)")

@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowmc.devices.jobs.pauses import last_tool_before
-from flowmc.devices.jobs.restart import plan_start
-from flowmc.errors import DeviceError
+from flowmc.devices.jobs.restart import plan_job_start
 from flowmc.motion.trajectory import Signal, Steps, Trajectory
 
 __all__ = ["start_motion"]
@@ -46,11 +44,8 @@ def start_motion(job, card, start_segment: int) -> tuple[Trajectory, np.ndarray,
     state = card.state()
     now = {("dout", ch): float(on) for ch, on in enumerate(state["dout"], 1)}
     now.update({("spindle_rpm", 1): float(state["spindle_rpm"]), ("da", 1): float(state["aout"][0]), ("tool", 0): 0.0})
-    try:
-        plan = plan_start(nominal, seg, signals, np.zeros(len(pos), dtype=bool), here, machine, now,
-                          start_segment=start_segment, where=job.where)
-    except ValueError as exc:
-        raise DeviceError(str(exc), where=job.name or "job") from None
+    plan = plan_job_start(job, nominal, seg, signals, np.zeros(len(pos), dtype=bool), here, machine, now,
+                          start_segment)
     shift = plan.junction - plan.program_row
     new_sig = Signal([row * period for row, *_ in plan.signals], [s[1] for s in plan.signals],
                      [s[2] for s in plan.signals], [s[3] for s in plan.signals])
@@ -70,9 +65,4 @@ def start_motion(job, card, start_segment: int) -> tuple[Trajectory, np.ndarray,
     trajectory = Trajectory(positions, period, seg_new, names, new_sig, motion.segment_names,
                             motion.segment_rapid, events)
     original = np.concatenate([np.full(plan.junction, -1), np.arange(plan.program_row, len(pos))])
-    assumptions = list(plan.assumptions)
-    tool = last_tool_before(motion, start_segment)
-    if tool is not None:
-        assumptions.append(f"assumed: tool T{tool.tool} is loaded (the last tool change before it, "
-                           f"{job.where(tool.segment)})")
-    return trajectory, original, assumptions
+    return trajectory, original, list(plan.assumptions)

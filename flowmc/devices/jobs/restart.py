@@ -16,10 +16,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from flowmc.devices.jobs.pauses import last_tool_before
 from flowmc.devices.sim.moves import line_move
+from flowmc.errors import DeviceError
 from flowmc.motion.machine import Machine
 
-__all__ = ["StartPlan", "plan_start", "SPIN_UP_S"]
+__all__ = ["StartPlan", "plan_start", "plan_job_start", "SPIN_UP_S"]
 
 SPIN_UP_S = 1.0  # seconds a restored spindle gets to reach speed before the tool goes down
 PLUNGE_SHARE = 0.25  # Z goes down at this share of its vmax
@@ -144,3 +146,20 @@ def plan_start(nominal: np.ndarray, segment: np.ndarray, signals: list[SignalRow
     out_signals.sort(key=lambda s: s[0])
     rapid_rows = np.concatenate([np.zeros(junction, dtype=bool), rapid[row0:]])
     return StartPlan(positions, seg, out_signals, rapid_rows, junction, row0, assumptions)
+
+
+def plan_job_start(job, nominal: np.ndarray, segment: np.ndarray, signals: list[SignalRow], rapid: np.ndarray,
+                   here: np.ndarray, machine: Machine, outputs_now: dict[tuple[str, int], float],
+                   start_segment: int | None) -> StartPlan:
+    """``plan_start`` for ``job`` on any device: a refusal is a DeviceError naming the job, and a start
+    mid-program also assumes the last tool change before it is the tool loaded."""
+    try:
+        plan = plan_start(nominal, segment, signals, rapid, here, machine, outputs_now,
+                          start_segment=start_segment, where=job.where)
+    except ValueError as exc:
+        raise DeviceError(str(exc), where=job.name or "job") from None
+    tool = last_tool_before(job.motion, start_segment) if start_segment is not None and job.motion is not None else None
+    if tool is not None:
+        plan.assumptions.append(f"assumed: tool T{tool.tool} is loaded (the last tool change before it, "
+                                f"{job.where(tool.segment)})")
+    return plan

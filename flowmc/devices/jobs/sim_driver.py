@@ -18,8 +18,8 @@ import numpy as np
 
 from flowmc.devices.jobs.card_driver import InstantDriver
 from flowmc.devices.jobs.job import Job, gcode_line, positions_of
-from flowmc.devices.jobs.pauses import last_tool_before, program_pauses
-from flowmc.devices.jobs.restart import plan_start
+from flowmc.devices.jobs.pauses import program_pauses
+from flowmc.devices.jobs.restart import plan_job_start
 from flowmc.devices.log import Change, DeviceLog, Event
 from flowmc.devices.sim.moves import line_move
 from flowmc.devices.sim.stream import CardStream
@@ -128,16 +128,8 @@ class SimStream:
         self.optional_stop = runner.status.optional_stop
         nominal, segment, signals, rapid = self._nominal()
         here = card._counts * card.step_mm
-        try:
-            plan = plan_start(nominal, segment, signals, rapid, here, card.machine, self._outputs_now(),
-                              start_segment=runner.start_at, where=job.where)
-        except ValueError as exc:
-            raise DeviceError(str(exc), where=job.name or "job") from None
-        if runner.start_at is not None and job.motion is not None:
-            tool = last_tool_before(job.motion, runner.start_at)
-            if tool is not None:
-                plan.assumptions.append(f"assumed: tool T{tool.tool} is loaded (the last tool change before it, "
-                                        f"{job.where(tool.segment)})")
+        plan = plan_job_start(job, nominal, segment, signals, rapid, here, card.machine, self._outputs_now(),
+                              runner.start_at)
         if runner.line_note:
             plan.assumptions.insert(0, runner.line_note)
         runner.assumptions = plan.assumptions
