@@ -52,6 +52,7 @@ from scipy.linalg import solveh_banded
 from scipy.ndimage import uniform_filter1d
 
 from flowmc.errors import PlanningError
+from flowmc.motion.bsplines import RunKnots
 from flowmc.motion.curve import POLY, CurveBuilder, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.path import Path
@@ -361,16 +362,13 @@ class _RunFitter:
         n_runs = len(ua)
         hr = width / spans
         self.hr, self.t = hr, t
-        self.knots = [np.r_[[a] * 3, np.linspace(a, a + w, s + 1), [a + w] * 3] for a, w, s in zip(ua, width, spans)]
-        rows, cols, vals = [], [], []
-        for r in range(n_runs):
-            lo, hi = self.bounds[r], self.bounds[r + 1]
-            dm = BSpline.design_matrix(np.clip(t[lo:hi], ua[r], ua[r] + width[r]), self.knots[r], 3).tocoo()
-            rows.append(dm.row + lo)
-            cols.append(dm.col + offset[r])
-            vals.append(dm.data)
-        self.design = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                                        shape=(len(t), total))
+        self.basis = RunKnots(ua, width, spans, offset)
+        self.knots = self.basis.knots
+        x = np.clip(t, ua[run_of], (ua + width)[run_of])
+        span = self.basis.span(run_of, x)
+        first = self.basis.first_cp(run_of, span)
+        self.design = sparse.csr_matrix((self.basis.basis(span, x).ravel(), (first[:, None] + np.arange(4)).ravel(),
+                                         np.arange(0, 4 * len(t) + 1, 4)), shape=(len(t), total))
         # fixed control points: position, tangent and curvature of the path at both ends of each run
         fixed = np.zeros(total, dtype=bool)
         c_fixed = np.zeros((total, 3))
@@ -474,30 +472,30 @@ class _RunFitter:
     def _arc_length_params(self, coef: np.ndarray, width: np.ndarray):
         """Foot of each data point on the fitted curves (two Newton steps from its parameter), as arc length
         along its curve; and each curve's length. None where the feet do not run forwards."""
+        run, a = self.run_of, self.ua[self.run_of]
+        t, q = self.t.copy(), self.q
+        for _ in range(2):
+            p, p1, p2 = self.basis.evaluate(coef, run, t, 2)
+            diff = p - q
+            den = np.einsum("ij,ij->i", p1, p1) + np.einsum("ij,ij->i", diff, p2)
+            t = np.clip(t - np.einsum("ij,ij->i", diff, p1) / np.where(den > 1e-12, den, 1.0), a, a + width[run])
+        lo, hi = self.bounds[:-1], self.bounds[1:] - 1
+        t[lo], t[hi] = self.ua, self.ua + width
+        step = np.diff(t)
+        inside = run[1:] == run[:-1]  # stretches between consecutive feet of one run
+        if np.any(step[inside] < 0):
+            return None
+        # arc length at the feet: Gauss-Legendre on every stretch between consecutive feet
+        gl_x, gl_w = np.polynomial.legendre.leggauss(5)
+        mid, half = np.where(inside, 0.5 * (t[1:] + t[:-1]), t[1:]), np.where(inside, 0.5 * step, 0.0)
+        nodes = mid[:, None] + half[:, None] * gl_x[None, :]
+        d1 = self.basis.evaluate(coef, np.repeat(run[1:], len(gl_x)), nodes.ravel(), 1)[1]
+        part = half * (np.linalg.norm(d1, axis=1).reshape(nodes.shape) @ gl_w)
         t_new = np.empty_like(self.t)
         lengths = np.empty(len(self.ua))
-        gl_x, gl_w = np.polynomial.legendre.leggauss(5)
-        for r in range(len(self.ua)):
-            lo, hi = self.bounds[r], self.bounds[r + 1]
-            a, w = self.ua[r], width[r]
-            spl = BSpline(self.knots[r], coef[self.offset[r]:self.offset[r] + self.ncp[r]], 3)
-            d1, d2 = spl.derivative(1), spl.derivative(2)
-            t = self.t[lo:hi].copy()
-            q = self.q[lo:hi]
-            for _ in range(2):
-                diff = spl(t) - q
-                p1, p2 = d1(t), d2(t)
-                den = np.einsum("ij,ij->i", p1, p1) + np.einsum("ij,ij->i", diff, p2)
-                t = np.clip(t - np.einsum("ij,ij->i", diff, p1) / np.where(den > 1e-12, den, 1.0), a, a + w)
-            t[0], t[-1] = a, a + w
-            if np.any(np.diff(t) < 0):
-                return None
-            # arc length at the feet: Gauss-Legendre on every stretch between consecutive feet
-            mid, half = 0.5 * (t[1:] + t[:-1]), 0.5 * np.diff(t)
-            nodes = mid[:, None] + half[:, None] * gl_x[None, :]
-            speed = np.linalg.norm(d1(nodes.ravel()), axis=1).reshape(nodes.shape)
-            s = np.concatenate([[0.0], np.cumsum(half * (speed @ gl_w))])
-            t_new[lo:hi] = a + s
+        for r in range(len(self.ua)):  # per run, so each sum runs as it always has
+            s = np.concatenate([[0.0], np.cumsum(part[lo[r]:hi[r]])])
+            t_new[lo[r]:hi[r] + 1] = self.ua[r] + s
             lengths[r] = s[-1]
         return t_new, lengths
 

@@ -1,0 +1,94 @@
+"""Cubic B-splines of many runs at once: basis values and evaluation, vectorised over every point of every run.
+
+Why: the smoothing (flowmc.motion.smoothing) fits hundreds of runs on dense CAM code; a scipy BSpline (or
+design matrix) per run costs far more in Python overhead than the arithmetic it does. Here every run's
+clamped knot vector is stacked in one flat array and the Cox-de Boor recursion (Piegl and Tiller, The
+NURBS Book, 2nd ed., algorithm A2.2) runs over all points of all runs at once. Derivatives are the
+splines of the differenced control points on the same knots, one degree lower (A3.3's construction).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["RunKnots"]
+
+
+class RunKnots:
+    """Clamped cubic knot vectors of many runs: run r has ``spans[r]`` equal spans over [a_r, a_r + w_r],
+    its knots at ``flat[start[r]:start[r] + spans[r] + 7]`` and its control points at ``offset[r]`` onwards
+    in the stacked control points."""
+
+    def __init__(self, a: np.ndarray, width: np.ndarray, spans: np.ndarray, offset: np.ndarray):
+        self.a, self.width, self.spans, self.offset = a, width, spans, offset
+        # each run: a three times, then spans + 1 knots as np.linspace(a, a + w, spans + 1) lays them, b three times
+        size = spans + 7
+        self.start = np.r_[0, np.cumsum(size)[:-1]]
+        run = np.repeat(np.arange(len(a)), size)
+        j = np.clip(np.arange(int(size.sum())) - self.start[run] - 3, 0, spans[run])
+        end = a + width
+        flat = j * ((end - a) / spans)[run] + a[run]
+        flat = np.where(j == spans[run], end[run], flat)
+        self.flat = flat
+        self.knots = np.split(flat, self.start[1:])
+
+    def span(self, run: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Index in ``flat`` of the knot t_i <= x < t_{i+1} of each point's run (the run's first or last span
+        for x outside it, as scipy's BSpline extrapolates). Runs may overlap: each point searches its own
+        run's knots (a guess from the equal spacing, then moved while a knot says otherwise)."""
+        first = self.start[run] + 3
+        last = first + self.spans[run] - 1
+        h = self.width[run] / self.spans[run]
+        guess = np.floor((x - self.a[run]) / np.where(h > 0, h, 1.0))
+        i = first + np.clip(np.nan_to_num(guess), 0, self.spans[run] - 1).astype(int)
+        t = self.flat
+        while True:
+            down = (i > first) & (x < t[i])
+            up = (i < last) & (x >= t[np.minimum(i + 1, len(t) - 1)])
+            if not (down.any() or up.any()):
+                return i
+            i = i - down + up
+
+    def basis(self, i: np.ndarray, x: np.ndarray, degree: int = 3) -> np.ndarray:
+        """(n, degree + 1) values of the non-zero basis functions of ``degree`` at x in span i (A2.2)."""
+        t = self.flat
+        n = np.empty((len(x), degree + 1))
+        n[:, 0] = 1.0
+        left = [None] + [x - t[i + 1 - j] for j in range(1, degree + 1)]
+        right = [None] + [t[i + j] - x for j in range(1, degree + 1)]
+        for j in range(1, degree + 1):
+            saved = np.zeros(len(x))
+            for r in range(j):
+                temp = n[:, r] / (right[r + 1] + left[j - r])
+                n[:, r] = saved + right[r + 1] * temp
+                saved = left[j - r] * temp
+            n[:, j] = saved
+        return n
+
+    def first_cp(self, run: np.ndarray, i: np.ndarray) -> np.ndarray:
+        """Stacked index of the first of the four control points acting in span i of each run."""
+        return self.offset[run] + (i - self.start[run] - 3)
+
+    def evaluate(self, coef: np.ndarray, run: np.ndarray, x: np.ndarray, order: int) -> list[np.ndarray]:
+        """[p, p', ..., p^(order)] (each (n, 3)) of the runs' splines (stacked control points ``coef``)."""
+        i = self.span(run, x)
+        j0 = self.first_cp(run, i)
+        out = []
+        c = coef
+        # knot differences of the derivative splines: c'_j = 3 (c_{j+1} - c_j) / (t_{j+4} - t_{j+1}), and so on
+        local = np.arange(len(coef)) - np.repeat(self.offset, self.spans + 3)
+        kstart = np.repeat(self.start, self.spans + 3) + local
+        for m in range(order + 1):
+            deg = 3 - m
+            nb = self.basis(i, x, deg)
+            val = np.zeros((len(x), 3))
+            for a in range(deg + 1):
+                val += c[j0 + a] * nb[:, a, None]
+            out.append(val)
+            if m < order:
+                step = self.flat[np.minimum(kstart + 4, len(self.flat) - 1)] - self.flat[np.minimum(kstart + 1 + m,
+                                                                                                     len(self.flat) - 1)]
+                diff = np.zeros_like(c)
+                diff[:-1] = (c[1:] - c[:-1]) * deg / np.where(step[:-1] > 0, step[:-1], 1.0)[:, None]
+                c = diff
+        return out
