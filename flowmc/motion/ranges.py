@@ -1,31 +1,49 @@
 """Range minimum and maximum over many windows of one array at once (a sparse table: O(n log w), vectorised).
 
 Only the levels the widest window needs are built (w its width), and all windows are answered by one
-gather from the stacked levels, so many calls with short windows over a long array stay cheap.
+gather from the stacked levels, so many calls with short windows over a long array stay cheap. The time
+law takes minima over the same windows again and again (every round of a profile): ``Windows`` works out
+the levels and where to gather once.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["window_min", "window_max"]
+__all__ = ["Windows", "window_min", "window_max"]
+
+
+class Windows:
+    """Windows [lo_k, hi_k] (0 <= lo_k <= hi_k < n) over arrays of length n."""
+
+    def __init__(self, lo: np.ndarray, hi: np.ndarray, n: int):
+        lo, hi = np.asarray(lo, dtype=int), np.asarray(hi, dtype=int)
+        level = np.floor(np.log2(np.maximum(hi - lo + 1, 1))).astype(int)
+        self.n = n
+        self.top = int(level.max()) if len(lo) else 0
+        # where each window's two overlapping blocks of 2^level sit in the stacked levels
+        self.first = level * n + lo
+        self.second = level * n + hi - (1 << level) + 1
+
+    def min(self, values: np.ndarray) -> np.ndarray:
+        """min(values[lo_k : hi_k + 1]) for every k."""
+        values = np.asarray(values, dtype=float)
+        if not len(self.first):
+            return np.empty(0)
+        # level l holds the minimum of 2^l values from each index; its last 2^(l-1) entries are never read
+        table = np.empty((self.top + 1, self.n))
+        table[0] = values
+        span = 1
+        for lv in range(1, self.top + 1):
+            np.minimum(table[lv - 1, :-span], table[lv - 1, span:], out=table[lv, :-span])
+            span *= 2
+        flat = table.reshape(-1)
+        return np.minimum(flat[self.first], flat[self.second])
 
 
 def window_min(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """min(values[lo_k : hi_k + 1]) for every k; 0 <= lo_k <= hi_k < len(values)."""
-    values = np.asarray(values, dtype=float)
-    lo, hi = np.asarray(lo, dtype=int), np.asarray(hi, dtype=int)
-    if not len(lo):
-        return np.empty(0)
-    level = np.floor(np.log2(np.maximum(hi - lo + 1, 1))).astype(int)
-    top = int(level.max())
-    table = np.full((top + 1, len(values)), np.inf)
-    table[0] = values
-    span = 1
-    for lv in range(1, top + 1):
-        np.minimum(table[lv - 1, :-span], table[lv - 1, span:], out=table[lv, :-span])
-        span *= 2
-    return np.minimum(table[level, lo], table[level, hi - (1 << level) + 1])
+    return Windows(lo, hi, len(values)).min(values)
 
 
 def window_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

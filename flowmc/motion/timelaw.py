@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -49,7 +50,7 @@ import flowmc.budget as budget
 from flowmc.errors import PlanningError
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.ranges import window_max, window_min
+from flowmc.motion.ranges import Windows, window_max, window_min
 
 __all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk"]
 
@@ -465,11 +466,12 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
 
     def planned(faster: np.ndarray, limit: np.ndarray | None):
         lo, hi = reach_of(faster)
+        windows = Windows(lo, hi, m)  # every round of the profile takes minima over these windows
 
         def reach_budget(level):
-            return tuple(window_min(b, lo, hi) for b in budget_of(level, swing))
+            return tuple(windows.min(b) for b in budget_of(level, swing))
 
-        y, budget = _profile(window_min(cap, lo, hi), stops, ds, reach_budget, node_limit=limit,
+        y, budget = _profile(windows.min(cap), stops, ds, reach_budget, node_limit=limit,
                              rounds=_REACH_PROFILE_ROUNDS)
         return y, budget, (lo, hi)
 
@@ -573,12 +575,17 @@ class _Phases:
         k, tau = self.at(t)
         return self.s0[k] + tau * (self.v0[k] + 0.5 * self.a[k] * tau)
 
-    def integral(self, t: np.ndarray) -> np.ndarray:
-        """Running integral of s over [0, t] (s is s0 before 0 and its end value after the last phase), as
-        long doubles: the moving average subtracts two of them."""
+    @cached_property
+    def _cumulative(self) -> np.ndarray:
+        """The integral of s over every whole phase before each, as long doubles."""
         part = self.dur * (self.s0 + self.dur * (0.5 * self.v0 + self.dur * self.a / 6.0))
-        cum = np.concatenate([[0.0], np.cumsum(part.astype(np.longdouble))])
-        k, tau = self.at(t)
+        return np.concatenate([[0.0], np.cumsum(part.astype(np.longdouble))])
+
+    def integral(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """Running integral of s over [0, t] (s is s0 before 0 and its end value after the last phase), as
+        long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known."""
+        cum = self._cumulative
+        k, tau = self.at(t) if where is None else where
         inside = (tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))).astype(np.longdouble)
         end_t = self.start[-1] + self.dur[-1]
         s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
@@ -645,9 +652,9 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
         seg = ph.owner[k]
     else:
         tj = law.window
-        s = ((ph.integral(ts) - ph.integral(ts - tj)) / np.longdouble(tj)).astype(float)
-        k0, _ = ph.at(ts - tj)
-        k1, _ = ph.at(ts)
+        at0, at1 = ph.at(ts - tj), ph.at(ts)
+        s = ((ph.integral(ts, at1) - ph.integral(ts - tj, at0)) / np.longdouble(tj)).astype(float)
+        k0, k1 = at0[0], at1[0]
         resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
         s = np.where(resting, ph.s0[k1], s)
         seg = np.where(resting & (ph.owner[k1] >= 0), ph.owner[k1], -1)
