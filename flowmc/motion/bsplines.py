@@ -51,44 +51,57 @@ class RunKnots:
 
     def basis(self, i: np.ndarray, x: np.ndarray, degree: int = 3) -> np.ndarray:
         """(n, degree + 1) values of the non-zero basis functions of ``degree`` at x in span i (A2.2)."""
+        return self.bases(i, x, (degree,))[degree]
+
+    def bases(self, i: np.ndarray, x: np.ndarray, degrees) -> dict[int, np.ndarray]:
+        """The non-zero basis functions of every degree in ``degrees`` at x in span i: the recursion passes
+        through each lower degree on its way up, so one pass gives them all."""
         t = self.flat
-        n = np.empty((len(x), degree + 1))
+        top = max(degrees)
+        n = np.empty((len(x), top + 1))
         n[:, 0] = 1.0
-        left = [None] + [x - t[i + 1 - j] for j in range(1, degree + 1)]
-        right = [None] + [t[i + j] - x for j in range(1, degree + 1)]
-        for j in range(1, degree + 1):
+        left = [None] + [x - t[i + 1 - j] for j in range(1, top + 1)]
+        right = [None] + [t[i + j] - x for j in range(1, top + 1)]
+        out = {0: n[:, :1].copy()} if 0 in degrees else {}
+        for j in range(1, top + 1):
             saved = np.zeros(len(x))
             for r in range(j):
                 temp = n[:, r] / (right[r + 1] + left[j - r])
                 n[:, r] = saved + right[r + 1] * temp
                 saved = left[j - r] * temp
             n[:, j] = saved
-        return n
+            if j in degrees:
+                out[j] = n[:, :j + 1] if j == top else n[:, :j + 1].copy()
+        return out
 
     def first_cp(self, run: np.ndarray, i: np.ndarray) -> np.ndarray:
         """Stacked index of the first of the four control points acting in span i of each run."""
         return self.offset[run] + (i - self.start[run] - 3)
 
-    def evaluate(self, coef: np.ndarray, run: np.ndarray, x: np.ndarray, order: int) -> list[np.ndarray]:
-        """[p, p', ..., p^(order)] (each (n, 3)) of the runs' splines (stacked control points ``coef``)."""
+    def evaluate(self, coef: np.ndarray, run: np.ndarray, x: np.ndarray, order: int,
+                 only: tuple[int, ...] | None = None) -> list[np.ndarray]:
+        """[p, p', ..., p^(order)] (each (n, 3)) of the runs' splines (stacked control points ``coef``); with
+        ``only``, just those derivatives (in that order)."""
+        wanted = tuple(range(order + 1)) if only is None else only
         i = self.span(run, x)
         j0 = self.first_cp(run, i)
-        out = []
+        nb = self.bases(i, x, [3 - m for m in wanted])
+        out = {}
         c = coef
         # knot differences of the derivative splines: c'_j = 3 (c_{j+1} - c_j) / (t_{j+4} - t_{j+1}), and so on
         local = np.arange(len(coef)) - np.repeat(self.offset, self.spans + 3)
-        kstart = np.repeat(self.start, self.spans + 3) + local
-        for m in range(order + 1):
+        kstart = np.minimum(np.repeat(self.start, self.spans + 3) + local, len(self.flat) - 5)
+        for m in range(max(wanted) + 1):
             deg = 3 - m
-            nb = self.basis(i, x, deg)
-            val = np.zeros((len(x), 3))
-            for a in range(deg + 1):
-                val += c[j0 + a] * nb[:, a, None]
-            out.append(val)
-            if m < order:
-                step = self.flat[np.minimum(kstart + 4, len(self.flat) - 1)] - self.flat[np.minimum(kstart + 1 + m,
-                                                                                                     len(self.flat) - 1)]
+            if m in wanted:
+                b = nb[deg]
+                val = c[j0] * b[:, 0, None]
+                for a in range(1, deg + 1):
+                    val += c[j0 + a] * b[:, a, None]
+                out[m] = val
+            if m < max(wanted):
+                step = self.flat[kstart + 4] - self.flat[kstart + 1 + m]
                 diff = np.zeros_like(c)
                 diff[:-1] = (c[1:] - c[:-1]) * deg / np.where(step[:-1] > 0, step[:-1], 1.0)[:, None]
                 c = diff
-        return out
+        return [out[m] for m in wanted]

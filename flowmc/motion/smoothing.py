@@ -489,7 +489,7 @@ class _RunFitter:
         gl_x, gl_w = np.polynomial.legendre.leggauss(5)
         mid, half = np.where(inside, 0.5 * (t[1:] + t[:-1]), t[1:]), np.where(inside, 0.5 * step, 0.0)
         nodes = mid[:, None] + half[:, None] * gl_x[None, :]
-        d1 = self.basis.evaluate(coef, np.repeat(run[1:], len(gl_x)), nodes.ravel(), 1)[1]
+        d1 = self.basis.evaluate(coef, np.repeat(run[1:], len(gl_x)), nodes.ravel(), 1, only=(1,))[0]
         part = half * (np.linalg.norm(d1, axis=1).reshape(nodes.shape) @ gl_w)
         t_new = np.empty_like(self.t)
         lengths = np.empty(len(self.ua))
