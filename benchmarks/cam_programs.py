@@ -19,13 +19,14 @@ cut), peak per-axis velocity, acceleration and jerk over the limit. ``TOPP-RA`` 
 time-optimal parameterisation of flowmc's own smoothed curve (benchmarks/toppra_reference.py, total
 time including rapids), so ``/topp`` says how close flowmc's time law comes to optimal on its geometry.
 
-    python3 benchmarks/cam_programs.py [--no-linuxcnc] [--no-toppra] [NAME ...]
+    python3 benchmarks/cam_programs.py [--no-linuxcnc] [--no-toppra] [--no-cold | --cold-only] [NAME ...]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import time
@@ -132,7 +133,11 @@ def main() -> None:
     ap.add_argument("--no-linuxcnc", action="store_true")
     ap.add_argument("--no-toppra", action="store_true")
     ap.add_argument("--no-cold", action="store_true")
+    ap.add_argument("--cold-only", action="store_true", help="only the cold-process table (3D_Chips beside rs274)")
     args = ap.parse_args()
+    if args.cold_only:
+        cold_start()
+        return
     if not args.no_toppra:
         sys.path.insert(0, str(FsPath(__file__).parent))
         from toppra_reference import toppra_time
@@ -165,31 +170,70 @@ def main() -> None:
         cold_start()
 
 
+_COLD_CHILD = """
+import time
+t0, c0 = time.perf_counter(), time.process_time()
+import json, sys
+sys.path.insert(0, {bench!r})
+import cam_programs as c
+from flowmc.motion.planner import plan_smooth
+t1, c1 = time.perf_counter(), time.process_time()
+path = c.program_path({name!r})
+t2, c2 = time.perf_counter(), time.process_time()
+plan = plan_smooth(path, c.machine(), tolerance=c.TOL)
+t3, c3 = time.perf_counter(), time.process_time()
+print(json.dumps({{"import": (t1 - t0, c1 - c0), "read": (t2 - t1, c2 - c1), "plan": (t3 - t2, c3 - c2),
+                  "setpoints": len(plan.trajectory)}}))
+"""
+
+
 def cold_start(name: str = "3D_Chips", runs: int = 3) -> None:
-    """Wall time of LinuxCNC's rs274 interpreting the program, beside a fresh Python process that imports
-    flowmc, reads the program and plans it (trapezoid, T = 1 ms): medians of ``runs``."""
+    """LinuxCNC's rs274 interpreting the program beside a fresh Python process that imports flowmc, reads the
+    program and plans it (trapezoid, T = 1 ms), in turns: medians of ``runs`` of the whole process's wall
+    and CPU time (user + system, from the OS), and of the flowmc process's own phases (its wall and CPU
+    clocks; the machine is shared, so CPU time is the steadier figure)."""
+    import resource
     import statistics
     import tempfile
 
     from flowmc.devices.linuxcnc.rs274 import number_lines
 
     table = ROOT / "flowmc" / "devices" / "linuxcnc" / "config" / "tool.tbl"
-    script = (f"import sys; sys.path.insert(0, {str(FsPath(__file__).parent)!r}); import cam_programs as c; "
-              f"from flowmc.motion.planner import plan_smooth; "
-              f"plan_smooth(c.program_path({name!r}), c.machine(), tolerance=c.TOL)")
-    timings = {"rs274": [], "flowmc": []}
+    script = _COLD_CHILD.format(bench=str(FsPath(__file__).parent), name=name)
+    timings: dict[str, list[tuple[float, float]]] = {"rs274": [], "flowmc": []}
+    phases = []
     with tempfile.TemporaryDirectory() as tmp:
         prog = FsPath(tmp) / f"{name}.ngc"
         prog.write_text(number_lines((NCFILES / f"{name}.ngc").read_text()))
         for _ in range(runs):
             for key, argv in (("rs274", ["rs274", "-t", str(table), "-g", str(prog)]),
                               ("flowmc", [sys.executable, "-c", script])):
+                before = resource.getrusage(resource.RUSAGE_CHILDREN)
                 t0 = time.perf_counter()
-                subprocess.run(argv, capture_output=True, stdin=subprocess.DEVNULL, check=True, cwd=tmp)
-                timings[key].append(time.perf_counter() - t0)
-    rs, fm = statistics.median(timings["rs274"]), statistics.median(timings["flowmc"])
-    print(f"\nCold process, {name}: rs274 interprets it in {rs:.2f} s; flowmc imports, reads and plans it "
-          f"(trapezoid, T = 1 ms) in {fm:.2f} s (medians of {runs})")
+                out = subprocess.run(argv, capture_output=True, stdin=subprocess.DEVNULL, check=True, cwd=tmp,
+                                     text=True)
+                wall = time.perf_counter() - t0
+                after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+                timings[key].append((wall, cpu))
+                if key == "flowmc":
+                    phases.append(json.loads(out.stdout.strip().splitlines()[-1]))
+
+    def med(values) -> float:
+        return statistics.median(values)
+
+    rs_wall, rs_cpu = med(w for w, _ in timings["rs274"]), med(c for _, c in timings["rs274"])
+    fm_wall, fm_cpu = med(w for w, _ in timings["flowmc"]), med(c for _, c in timings["flowmc"])
+    print(f"\nCold process, {name} ({phases[0]['setpoints']} setpoints; medians of {runs}, taken in turns; "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)\n")
+    print("| process | wall s | CPU s | wall / rs274 |")
+    print("|---|---|---|---|")
+    print(f"| rs274 interprets it | {rs_wall:.2f} | {rs_cpu:.2f} | 1 |")
+    print(f"| flowmc imports, reads and plans it (trapezoid, T = 1 ms) | {fm_wall:.2f} | {fm_cpu:.2f} | "
+          f"{fm_wall / rs_wall:.1f} |")
+    for key, what in (("import", "import flowmc and the planner"), ("read", "read the G-code"),
+                      ("plan", "plan (smoothing, time law, sampling)")):
+        print(f"| ... {what} | {med(p[key][0] for p in phases):.2f} | {med(p[key][1] for p in phases):.2f} | |")
 
 
 def report(rows: list[dict], args) -> None:
