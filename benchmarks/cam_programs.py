@@ -173,14 +173,16 @@ def main() -> None:
 _COLD_CHILD = """
 import time
 t0, c0 = time.perf_counter(), time.process_time()
-import json, sys
-sys.path.insert(0, {bench!r})
-import cam_programs as c
+import json
+from flowmc.motion.gcode import read_gcode
+from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.planner import plan_smooth
 t1, c1 = time.perf_counter(), time.process_time()
-path = c.program_path({name!r})
+path = read_gcode({file!r}).with_feed({feed!r})
 t2, c2 = time.perf_counter(), time.process_time()
-plan = plan_smooth(path, c.machine(), tolerance=c.TOL)
+machine = Machine(axes=tuple(Axis(name=n, min=-500, max=500, vmax=200, amax=200, jmax={jerk!r}) for n in "XYZ"),
+                  period=0.001)
+plan = plan_smooth(path, machine, tolerance={tol!r})
 t3, c3 = time.perf_counter(), time.process_time()
 print(json.dumps({{"import": (t1 - t0, c1 - c0), "read": (t2 - t1, c2 - c1), "plan": (t3 - t2, c3 - c2),
                   "setpoints": len(plan.trajectory)}}))
@@ -199,7 +201,9 @@ def cold_start(name: str = "3D_Chips", runs: int = 3) -> None:
     from flowmc.devices.linuxcnc.rs274 import number_lines
 
     table = ROOT / "flowmc" / "devices" / "linuxcnc" / "config" / "tool.tbl"
-    script = _COLD_CHILD.format(bench=str(FsPath(__file__).parent), name=name)
+    # the child imports only what reading and planning need (not this benchmark's LinuxCNC backend)
+    script = _COLD_CHILD.format(file=str(NCFILES / f"{name}.ngc"), feed=FEED, jerk=JERK, tol=TOL)
+    assert machine().axes[0].jmax == JERK and machine().period == 0.001  # the child's machine is machine()
     timings: dict[str, list[tuple[float, float]]] = {"rs274": [], "flowmc": []}
     phases = []
     with tempfile.TemporaryDirectory() as tmp:
