@@ -51,27 +51,27 @@ class RunKnots:
 
     def basis(self, i: np.ndarray, x: np.ndarray, degree: int = 3) -> np.ndarray:
         """(n, degree + 1) values of the non-zero basis functions of ``degree`` at x in span i (A2.2)."""
-        return self.bases(i, x, (degree,))[degree]
+        return self.bases(i, x, (degree,))[degree].T
 
     def bases(self, i: np.ndarray, x: np.ndarray, degrees) -> dict[int, np.ndarray]:
-        """The non-zero basis functions of every degree in ``degrees`` at x in span i: the recursion passes
-        through each lower degree on its way up, so one pass gives them all."""
+        """The non-zero basis functions, (degree + 1, n), of every degree in ``degrees`` at x in span i: the
+        recursion passes through each lower degree on its way up, so one pass gives them all."""
         t = self.flat
         top = max(degrees)
-        n = np.empty((len(x), top + 1))
-        n[:, 0] = 1.0
+        n = np.empty((top + 1, len(x)))  # one row per function: numpy's loops run along the points
+        n[0] = 1.0
         left = [None] + [x - t[i + 1 - j] for j in range(1, top + 1)]
         right = [None] + [t[i + j] - x for j in range(1, top + 1)]
-        out = {0: n[:, :1].copy()} if 0 in degrees else {}
+        out = {0: n[:1].copy()} if 0 in degrees else {}
         for j in range(1, top + 1):
             saved = np.zeros(len(x))
             for r in range(j):
-                temp = n[:, r] / (right[r + 1] + left[j - r])
-                n[:, r] = saved + right[r + 1] * temp
+                temp = n[r] / (right[r + 1] + left[j - r])
+                n[r] = saved + right[r + 1] * temp
                 saved = left[j - r] * temp
-            n[:, j] = saved
+            n[j] = saved
             if j in degrees:
-                out[j] = n[:, :j + 1] if j == top else n[:, :j + 1].copy()
+                out[j] = n[:j + 1] if j == top else n[:j + 1].copy()
         return out
 
     def first_cp(self, run: np.ndarray, i: np.ndarray) -> np.ndarray:
@@ -93,12 +93,12 @@ class RunKnots:
         kstart = np.minimum(np.repeat(self.start, self.spans + 3) + local, len(self.flat) - 5)
         for m in range(max(wanted) + 1):
             deg = 3 - m
-            if m in wanted:
-                b = nb[deg]
-                val = c[j0] * b[:, 0, None]
+            if m in wanted:  # worked as (3, n) rows, along the points
+                b, by_axis = nb[deg], c.T
+                val = np.take(by_axis, j0, axis=1) * b[0]
                 for a in range(1, deg + 1):
-                    val += c[j0 + a] * b[:, a, None]
-                out[m] = val
+                    val += np.take(by_axis, j0 + a, axis=1) * b[a]
+                out[m] = val.T
             if m < max(wanted):
                 step = self.flat[kstart + 4] - self.flat[kstart + 1 + m]
                 diff = np.zeros_like(c)

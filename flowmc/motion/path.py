@@ -857,12 +857,9 @@ class Path:
 
     def gaps(self, tol: float = 1e-6) -> list[int]:
         """Indices i where segment i does not start at the end of segment i-1."""
-        if self._cols is not None:
-            cols = self._cols
-            jump = np.linalg.norm(cols.start[1:] - cols.end[:-1], axis=1)
-            return (np.flatnonzero(jump > tol) + 1).tolist()
-        return [i for i in range(1, len(self.segments))
-                if np.linalg.norm(self.segments[i].start - self.segments[i - 1].end) > tol]
+        cols = self.columns  # built once and kept: the planners read the columns next anyway
+        jump = np.linalg.norm(cols.start[1:] - cols.end[:-1], axis=1)
+        return (np.flatnonzero(jump > tol) + 1).tolist()
 
     def sample(self, tol: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
         """Points along the whole path with chord error <= tol, and the segment index of each point.
