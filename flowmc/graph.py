@@ -75,7 +75,7 @@ class Issue:
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", populate_by_name=True, validate_assignment=True)
+    model_config = ConfigDict(extra="forbid", populate_by_name=True, validate_assignment=True, defer_build=True)
 
 
 BODY_NAME_PATTERN = r"^[^\x00-\x1f\x7f]{1,80}$"  # a case label is text: anything printable, kept short
@@ -226,8 +226,6 @@ def _without_positions(data: dict[str, Any]) -> dict[str, Any]:
             _without_positions(body)
     return data
 
-
-Node.model_rebuild()
 
 
 def split_ref(ref: str) -> tuple[str, str]:
