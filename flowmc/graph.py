@@ -86,7 +86,7 @@ def _empty_dict() -> dict[str, Any]:
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", populate_by_name=True, validate_assignment=True, defer_build=True)
+    model_config = ConfigDict(extra="forbid", populate_by_name=True, validate_assignment=True)
 
 
 BODY_NAME_PATTERN = r"^[^\x00-\x1f\x7f]{1,80}$"  # a case label is text: anything printable, kept short
@@ -237,6 +237,8 @@ def _without_positions(data: dict[str, Any]) -> dict[str, Any]:
             _without_positions(body)
     return data
 
+
+Node.model_rebuild()
 
 
 def split_ref(ref: str) -> tuple[str, str]:

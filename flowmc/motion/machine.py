@@ -18,7 +18,7 @@ RAPID_FEED = 200.0
 class Axis(BaseModel):
     """One axis: travel (soft limits) and dynamics."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     name: Annotated[str, Field(min_length=1, max_length=8, description="Axis letter")] = "X"
     min: Annotated[float, Field(description="Soft limit, low end", json_schema_extra={"unit": "mm"})] = -200.0
@@ -45,7 +45,7 @@ def _default_axes() -> tuple[Axis, ...]:
 class Machine(BaseModel):
     """Axes in order (X, Y, Z[, A]) and the interpolation period T."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
     axes: tuple[Axis, ...] = Field(default_factory=_default_axes, min_length=1, max_length=4)
     period: Annotated[float, Field(gt=0, le=0.1, description="Interpolation period T",

@@ -26,7 +26,7 @@ __all__ = ["LineRow", "ArcRow", "EllipseRow", "Row", "path_from_rows"]
 
 
 class _RowBase(BaseModel):
-    model_config = ConfigDict(extra="forbid", defer_build=True)
+    model_config = ConfigDict(extra="forbid")
 
     feed: Annotated[float | None, Field(gt=0, description="Feed for this row (default: the table's)",
                                         json_schema_extra={"unit": "mm/s"})] = None

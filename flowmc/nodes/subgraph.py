@@ -211,7 +211,7 @@ def _split_scalars(ports: Ports, stem: str) -> tuple[type[BaseModel], Ports]:
         p.name: (_SCALAR_TYPES[p.type] | None, Field(None if p.default is REQUIRED else p.default, description=p.doc))
         for p in ports.inputs if isinstance(p.type, str) and p.type in _SCALAR_TYPES
     }
-    params = create_model(f"Lib_{stem}_Params", __config__=ConfigDict(extra="forbid", defer_build=True), **fields)
+    params = create_model(f"Lib_{stem}_Params", __config__=ConfigDict(extra="forbid"), **fields)
     data = tuple(p for p in ports.inputs if p.name not in fields)
     return params, Ports(data, ports.outputs)
 
