@@ -74,6 +74,17 @@ class Issue:
         return self.message
 
 
+# Fields default to these, not to ``list`` or ``dict``: pydantic reads each default factory's signature,
+# and the first signature of a built-in type compiles the tokenizer's expressions, a cost every
+# ``flowmc validate`` would pay at start (benchmarks/cold_start.py).
+def _empty_list() -> list[Any]:
+    return []
+
+
+def _empty_dict() -> dict[str, Any]:
+    return {}
+
+
 class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", populate_by_name=True, validate_assignment=True)
 
@@ -87,10 +98,10 @@ class Node(_Model):
 
     id: str = Field(pattern=ID_PATTERN, description="Stable node id, unique in the graph")
     type: str = Field(min_length=1, description="Node type id, e.g. 'path.scale' or 'lib.pocket'")
-    params: dict[str, Any] = Field(default_factory=dict, description="Param values by name")
+    params: dict[str, Any] = Field(default_factory=_empty_dict, description="Param values by name")
     pos: tuple[float, float] = Field((0.0, 0.0), description="Canvas position [x, y]")
     bodies: dict[Annotated[str, Field(pattern=BODY_NAME_PATTERN)], "Body"] = Field(
-        default_factory=dict, description="Structures only: the graphs the node holds, by name")
+        default_factory=_empty_dict, description="Structures only: the graphs the node holds, by name")
 
 
 class Wire(_Model):
@@ -107,7 +118,7 @@ class InterfaceInput(_Model):
     type: PortType
     description: str = ""
     default: Any = Field(None, description="Value used when not given; null: internal ports keep their own")
-    to: list[str] = Field(default_factory=list, description="Internal 'node.port' targets (none: not wired yet)")
+    to: list[str] = Field(default_factory=_empty_list, description="Internal 'node.port' targets (none: not wired yet)")
 
 
 class InterfaceOutput(_Model):
@@ -120,16 +131,16 @@ class InterfaceOutput(_Model):
 
 
 class Interface(_Model):
-    inputs: list[InterfaceInput] = Field(default_factory=list)
-    outputs: list[InterfaceOutput] = Field(default_factory=list)
+    inputs: list[InterfaceInput] = Field(default_factory=_empty_list)
+    outputs: list[InterfaceOutput] = Field(default_factory=_empty_list)
 
 
 class Body(_Model):
     """A graph a structure node holds: its nodes and wires (ids of its own, as in a sub-graph file)
     and its interface, which is what the structure's ports are made from."""
 
-    nodes: list[Node] = Field(default_factory=list)
-    wires: list[Wire] = Field(default_factory=list)
+    nodes: list[Node] = Field(default_factory=_empty_list)
+    wires: list[Wire] = Field(default_factory=_empty_list)
     interface: Interface = Field(default_factory=Interface)
 
     def as_graph(self, outer: "Graph") -> "Graph":
@@ -165,11 +176,11 @@ class View(_Model):
     and output terminals sit (``"in.<name>"`` / ``"out.<name>"``), and the probed wires. Never part of a
     result."""
 
-    comments: list[Comment] = Field(default_factory=list)
-    labels: list[Label] = Field(default_factory=list)
-    terminals: dict[Annotated[str, Field(pattern=TERMINAL_PATTERN)], tuple[float, float]] = Field(default_factory=dict)
+    comments: list[Comment] = Field(default_factory=_empty_list)
+    labels: list[Label] = Field(default_factory=_empty_list)
+    terminals: dict[Annotated[str, Field(pattern=TERMINAL_PATTERN)], tuple[float, float]] = Field(default_factory=_empty_dict)
     probes: list[Annotated[str, Field(pattern=REF_PATTERN)]] = Field(
-        default_factory=list, description="Wires probed in the editor, by their source 'node.output'")
+        default_factory=_empty_list, description="Wires probed in the editor, by their source 'node.output'")
 
     @property
     def empty(self) -> bool:
@@ -182,8 +193,8 @@ class Graph(_Model):
     schema_version: Literal[2] = SCHEMA_VERSION
     title: str = ""
     description: str = ""
-    nodes: list[Node] = Field(default_factory=list)
-    wires: list[Wire] = Field(default_factory=list)
+    nodes: list[Node] = Field(default_factory=_empty_list)
+    wires: list[Wire] = Field(default_factory=_empty_list)
     interface: Interface | None = None
     view: View = Field(default_factory=View, description="Comments, labels, terminal places: view state only")
 

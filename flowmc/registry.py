@@ -52,7 +52,7 @@ _TYPE_ID = re.compile(r"^[a-z][a-z0-9_]*(\.[a-z][a-z0-9_]*)*$")
 class NoParams(BaseModel):
     """Params of a node type that has none."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
 
 class NodeType:
@@ -255,6 +255,22 @@ def declared_in(module: str) -> list[type[NodeType]]:
 
 # ---------------------------------------------------------------- the registry
 
+_build_lock = threading.Lock()
+
+
+def _built(cls: type[NodeType]) -> type[NodeType]:
+    """``cls`` with its params model built. flowmc's params models build when first used (``defer_build``:
+    a graph builds only those of its types), and pydantic's build is not thread-safe (a model validated
+    by two threads while it builds can be checked as its parent class): the registry builds each once,
+    under a lock, before handing its type out."""
+    params = cls.Params
+    if not params.__pydantic_complete__:
+        with _build_lock:
+            if not params.__pydantic_complete__:
+                params.model_rebuild(raise_errors=False)
+    return cls
+
+
 _generations = itertools.count(1)  # one counter for all registries: a generation names one state of one registry
 
 
@@ -371,7 +387,7 @@ class Registry:
         """Node types from code, by id, sorted (every deferred source loads). Library graphs are in ``describe_all``."""
         with self._lock:
             self._load_all()
-            return dict(sorted(self._types.items()))
+            return {type_id: _built(cls) for type_id, cls in sorted(self._types.items())}
 
     def origin(self, type_id: str) -> str:
         """Where a type came from: its module, an entry point or a node folder."""
@@ -400,11 +416,11 @@ class Registry:
             if self.library is not None:
                 found = self.library.lookup(type_id, Path(graph_dir) if graph_dir is not None else None, self)
                 if found is not None:
-                    return found
+                    return _built(found)
         else:
             cls = self._code_type(type_id)
             if cls is not None:
-                return cls
+                return _built(cls)
         raise GraphError(f"unknown node type {type_id!r}", where=None)
 
     def unknown_type_hint(self) -> str:

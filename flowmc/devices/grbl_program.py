@@ -146,7 +146,7 @@ def program_rows(motion: Trajectory | Steps, machine: Machine, signals: Signal |
         raise DeviceError(f"GRBL runs a Trajectory, Steps or G-code text, not {type(motion).__name__}", where="grbl")
     sig = motion.signals if signals is None else motion.signals.merged(signals)
     per_row = dt if not (isinstance(motion, Steps) and motion.tick <= 0) else 1.0  # untimed: ticks
-    sig_rows = np.clip(np.ceil(np.asarray(sig.t) / per_row - 1e-9).astype(int), 0, len(pos) - 1)
+    sig_rows = sig.rows(per_row, 0, len(pos) - 1)
     return pos, dt, seg, unit, sig, sig_rows, per_row
 
 
@@ -209,7 +209,7 @@ def _stop_rows(motion, seg: np.ndarray, optional_stop: bool, per_row: float, n: 
                from_segment: int | None = None) -> list[tuple[int, int, str]]:
     """(row, how many of the row's signal codes come first, source) of each operator stop, in order;
     ``from_segment``: only the stops at it and after it (a stop before a mid-program start is behind it)."""
-    own = np.clip(np.ceil(np.asarray(motion.signals.t) / per_row - 1e-9).astype(int), 0, n - 1)
+    own = motion.signals.rows(per_row, 0, n - 1)
     out = []
     for e in motion.events:
         if e.kind == "optional_pause" and not optional_stop or from_segment is not None and e.segment < from_segment:

@@ -90,6 +90,11 @@ class Signal:
             np.concatenate([self.value, other.value]),
         )
 
+    def rows(self, period: float, first: int, last: int) -> np.ndarray:
+        """The setpoint row each event takes effect at, rows ``period`` apart: the first row at or after its
+        time (an event a rounding error past a row is on it), kept to rows ``first``..``last``."""
+        return np.clip(np.ceil(self.t / period - 1e-9).astype(int), first, last)
+
     def shifted(self, dt: float) -> "Signal":
         return Signal(self.t + dt, self.kind, self.channel, self.value)
 

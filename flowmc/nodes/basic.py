@@ -16,7 +16,7 @@ from flowmc.registry import In, NodeType, Out, Ports, register
 
 
 class _Params(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
 
 # ---------------------------------------------------------------- constants

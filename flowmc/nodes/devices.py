@@ -42,7 +42,7 @@ _SIGNALS_OUT = Out("signals", "Signal", doc="The incoming events plus these")
 
 
 class _Params(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
 
 class _DeviceParams(_Params):

@@ -19,7 +19,7 @@ _SHOWN = 5  # warnings and messages logged per run
 
 
 class GcodeInParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     text: Annotated[str, Field(description="G-code program (used when no file is given)",
                                json_schema_extra={"multiline": True})] = ""
@@ -93,7 +93,7 @@ class GcodeIn(NodeType):
 
 
 class GcodeOutParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     file: Annotated[str | None, Field(description="Also write the program to this file, relative to the "
                                                   "graph's folder (atomically)")] = None

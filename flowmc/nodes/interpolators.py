@@ -35,7 +35,7 @@ def _xy_axes(machine: Machine | None) -> tuple[Axis, Axis]:
 
 
 class _Params(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     chord_tol: Annotated[float | None, Field(gt=0, description="Chord tolerance where curves are cut into chords "
                                                                "(empty: half a step)", json_schema_extra=_MM)] = None

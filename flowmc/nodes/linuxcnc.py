@@ -10,7 +10,7 @@ from flowmc.registry import In, NodeType, Out, register
 
 
 class CompareParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     tolerance: Annotated[float, Field(gt=0, le=5, description="Corner tolerance: G64 P for LinuxCNC, blend "
                                                               "tolerance for flowmc", json_schema_extra={"unit": "mm"})] = 0.05

@@ -26,7 +26,7 @@ _TRAJ_OUT = Out("trajectory", "Trajectory", doc="Setpoints at period T")
 # ---------------------------------------------------------------- NURBS interpolator
 
 class NurbsInterpParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     feed: Annotated[float | None, Field(gt=0, description="Feed; empty: each segment's own feed",
                                         json_schema_extra=_MM_S)] = None
@@ -71,7 +71,7 @@ class NurbsInterpolator(NodeType):
 # ---------------------------------------------------------------- time-division interpolator
 
 class TimeDivisionParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     profile: Annotated[Literal["trapezoid", "exponential", "scurve"],
                        Field(description="Velocity profile of each segment (stop and go)")] = "scurve"

@@ -11,7 +11,7 @@ from flowmc.registry import In, NodeType, Out, register
 
 
 class MeasureParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     expected_xy: Annotated[list[float] | None, Field(description="Expected XY length per segment (lines: XY "
                                                                  "length, arcs: chord), to compare against",

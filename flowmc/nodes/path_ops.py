@@ -19,7 +19,7 @@ _DEG = {"unit": "deg"}
 
 
 class _Params(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
 
 _PATH_IN = (In("path", "Path", doc="Path to change"),)

@@ -14,7 +14,7 @@ _MM_S = {"unit": "mm/s"}
 
 
 class SegmentTableParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     start: Annotated[tuple[float, float, float], Field(description="Start point", json_schema_extra=_MM)] = (0, 0, 0)
     feed: Annotated[float, Field(gt=0, description="Feed for rows that set none", json_schema_extra=_MM_S)] = 50.0
@@ -35,7 +35,7 @@ class SegmentTable(NodeType):
 
 
 class PolylineParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     points: Annotated[list[tuple[float, float, float]], Field(min_length=2, description="Points in order",
                                                               json_schema_extra=_MM)] = [(0, 0, 0), (10, 0, 0)]
@@ -60,7 +60,7 @@ class Polyline(NodeType):
 
 
 class NurbsParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     control_points: Annotated[list[tuple[float, float, float]], Field(min_length=2, description="Control points",
                                                                       json_schema_extra=_MM)]

@@ -18,7 +18,7 @@ _PATH_OUT = Out("path", "Path", doc="The changed path")
 
 
 class StateParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     spindle_rpm: Annotated[float | None, Field(ge=-24000, le=24000, description="Spindle speed on every segment "
                                                "(+ cw, - ccw, 0 off; empty: keep)", json_schema_extra={"unit": "rpm"})] = None
@@ -55,7 +55,7 @@ class SetState(NodeType):
 
 
 class ApproachParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     x: Annotated[float, Field(description="Where the pen is before the move", json_schema_extra={"unit": "mm"})] = 0.0
     y: Annotated[float, Field(description="Where the pen is before the move", json_schema_extra={"unit": "mm"})] = 0.0

@@ -24,7 +24,7 @@ _CYCLE_OUT = Out("cycle_time", "Number", doc="Time to the last setpoint (s)")
 
 
 class LookaheadParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     rule: Annotated[Literal["blend", "arm_weighted", "junction_deviation"], Field(
         description="Junction speeds: round corners within the tolerance (G64 P style), the ARM paper's "
@@ -58,7 +58,7 @@ class LookaheadPlanner(NodeType):
 
 
 class StopAndGoParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     profile: Annotated[Literal["trapezoid", "exponential", "scurve"], Field(
         description="Velocity profile of each segment, from rest to rest")] = "trapezoid"
@@ -83,7 +83,7 @@ class StopAndGoPlanner(NodeType):
 
 
 class MetricsParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     bound: Annotated[float | None, Field(gt=0, description="Time-optimal bound of the path, for the ratio "
                                                            "(empty: no ratio)", json_schema_extra={"unit": "s"})] = None

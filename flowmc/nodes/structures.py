@@ -61,7 +61,7 @@ _Name = Annotated[str, Field(pattern=NAME_PATTERN)]
 
 
 class _Params(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
 
 class _LoopParams(_Params):

@@ -141,7 +141,7 @@ def _start_bound(ctx: Any, job: Any, name: str) -> dict[str, Any]:
 
 
 class SubgraphParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
     file: str = Field(description="Graph file with an interface, relative to this graph's folder")
 
 

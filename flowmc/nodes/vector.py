@@ -14,7 +14,7 @@ _MM_S = {"unit": "mm/s"}
 
 
 class LayerRule(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     layer: Annotated[str, Field(description="Layer name (DXF layer, SVG group label or id), or * for any")] = "*"
     colour: Annotated[str, Field(description="Stroke colour: '#rrggbb' (SVG, DXF true colour) or a DXF colour "
@@ -25,7 +25,7 @@ class LayerRule(BaseModel):
 
 
 class VectorInParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     file: Annotated[str, Field(description="SVG or DXF drawing, relative to the graph's folder")]
     curves: Annotated[Literal["arcs", "exact"], Field(description="arcs: Béziers, splines and ellipses become "

@@ -19,7 +19,7 @@ __all__ = ["View3D", "ViewParams"]
 
 
 class ViewParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     title: Annotated[str, Field(description="Shown above the view (empty: the node's id)")] = ""
     travel_box: Annotated[bool, Field(description="Draw the machine's travel box when a Machine is wired")] = True

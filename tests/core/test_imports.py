@@ -75,3 +75,33 @@ def test_loops_cases_reports_and_planners_validate_without_numpy(name):
     proc = subprocess.run([sys.executable, "-c", code, str(graph)], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == "0 False"
+
+
+BUILT = """
+import sys
+from flowmc.cli import main
+from pydantic import BaseModel
+code = main(["validate", sys.argv[1]])
+models = {f"{m.__module__}.{m.__qualname__}": m.__pydantic_complete__ for m in BaseModel.__subclasses__()}
+models.update((f"{m.__module__}.{m.__qualname__}", m.__pydantic_complete__) for n in list(sys.modules)
+              if n.startswith("flowmc.") for m in vars(sys.modules[n]).values()
+              if isinstance(m, type) and issubclass(m, BaseModel) and m is not BaseModel)
+print(code, sorted(n for n, done in models.items() if done and n.startswith("flowmc.")))
+"""
+
+
+def test_validate_builds_only_the_models_it_uses():
+    """pydantic builds a model's validator when it first validates (``defer_build``): validating a graph builds
+    the graph file's model and the params of the node types the graph uses, not every model of the node
+    modules it imports (the Jog, PWM or Pre-flight params beside Home and Card output)."""
+    from core_helpers import REPO
+
+    graph = REPO / "graphs" / "thesis_3axis.flowmc.json"
+    proc = subprocess.run([sys.executable, "-c", BUILT, str(graph)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    code, built = proc.stdout.strip().splitlines()[-1].split(" ", 1)
+    assert code == "0"
+    assert "flowmc.graph.Graph" in built and "flowmc.nodes.devices.HomeParams" in built
+    for unused in ("flowmc.nodes.devices.JogParams", "flowmc.nodes.devices.PwmParams",
+                   "flowmc.nodes.devices.PreflightParams", "flowmc.nodes.planning.StopAndGoParams"):
+        assert unused not in built

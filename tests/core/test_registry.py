@@ -174,3 +174,22 @@ def test_adding_loads_earlier_deferred_sources_first_so_they_keep_their_ids():
     with pytest.raises(TypeError, match="already used"):
         reg.add(clash)
     assert reg.origin("test.first") == "first"
+
+
+def test_lookup_and_types_hand_out_types_with_their_params_built():
+    """Params models build on first use (defer_build), which pydantic does not make thread-safe: the registry
+    builds them, under a lock, before handing a type out, so threads validating params never race a build."""
+
+    class LazyParams(BaseModel):
+        model_config = ConfigDict(extra="forbid", defer_build=True)
+        speed: float = Field(1.0, gt=0)
+
+    class OtherParams(LazyParams):
+        count: int = 3
+
+    reg = Registry([_make(type_id="test.lazy", Params=LazyParams), _make(type_id="test.other", Params=OtherParams)])
+    assert not LazyParams.__pydantic_complete__ and not OtherParams.__pydantic_complete__
+    assert reg.lookup("test.lazy").Params.__pydantic_complete__
+    assert not OtherParams.__pydantic_complete__  # only the type handed out
+    assert all(cls.Params.__pydantic_complete__ for cls in reg.types().values())
+    assert OtherParams.model_validate({"count": 4}).count == 4

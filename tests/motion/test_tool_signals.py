@@ -161,3 +161,14 @@ def test_interpolator_nodes_and_the_time_division_node_give_the_same_tool_sequen
     for node_id, port in (("pbp", "steps"), ("dda", "steps"), ("td", "trajectory"), ("la", "trajectory")):
         sig = result.output(node_id, port).signals
         assert [v for _, v in tool_events(sig)] == expected, node_id
+
+
+def test_signal_rows_are_the_first_row_at_or_after_each_event():
+    """The rounding the LinuxCNC and GRBL programs put an event on a setpoint row with (Signal.rows): one landing on a
+    row by arithmetic (0.1 + 0.2 s, a hair past 0.3 s) is on that row, not the next; others round up; all are kept
+    to the rows given."""
+    period = 0.1
+    sig = Signal([0.0, 0.1 + 0.2, 0.31, 0.75, 9.0], ["dout"] * 5, [1] * 5, [1.0] * 5)
+    assert (0.1 + 0.2) / period > 3.0  # the float sum lies just past row 3
+    assert sig.rows(period, 0, 6).tolist() == [0, 3, 4, 6, 6]
+    assert sig.rows(period, 1, 20).tolist() == [1, 3, 4, 8, 20]

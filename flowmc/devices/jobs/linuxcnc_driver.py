@@ -87,14 +87,11 @@ class LinuxCNCDriver:
         """LinuxCNC's program with the job's stops, and the tables that read LinuxCNC's lines back."""
         card, runner = self.card, self.runner
         motion, signals = self.motion, self.signals
-        positions, self.period, self.axes = card.setpoints(motion)
-        self.positions = np.asarray(positions, dtype=float)
-        n = len(positions)
+        self.positions, self.seg, self.period, self.axes = card.setpoint_rows(motion)
+        n = len(self.positions)
         last = max(n - 1, 1)
-        seg = np.asarray(motion.segment if motion.segment is not None else np.zeros(n, dtype=np.int64))
-        self.seg = seg if len(seg) == n else np.concatenate([seg[:1], seg])[:n]  # Steps: origin row first
         merged = motion.signals.merged(signals)
-        rows = np.clip(np.ceil(np.asarray(merged.t) / self.period - 1e-9).astype(int), 1, last)
+        rows = merged.rows(self.period, 1, last)
         own = rows[:len(motion.signals)]
         sorted_rows = np.sort(rows)
         planned: list[tuple[int, int, str, Pause | None, int]] = []

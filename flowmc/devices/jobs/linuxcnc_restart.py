@@ -13,32 +13,23 @@ from __future__ import annotations
 import numpy as np
 
 from flowmc.devices.jobs.restart import plan_job_start
-from flowmc.motion.trajectory import Signal, Steps, Trajectory
+from flowmc.motion.trajectory import Signal, Trajectory
 
 __all__ = ["start_motion"]
-
-
-def _rows(motion: Trajectory | Steps) -> tuple[np.ndarray, np.ndarray, float]:
-    """(positions, segment per row, period) as the LinuxCNC card runs them."""
-    if isinstance(motion, Steps):
-        pos = motion.positions()
-        seg = motion.segment if motion.segment is not None else np.zeros(len(pos) - 1, dtype=int)
-        return pos, np.concatenate([seg[:1], seg]), motion.tick  # row 0 is the origin
-    return np.asarray(motion.positions), np.asarray(motion.segment), motion.period
 
 
 def start_motion(job, card, start_segment: int) -> tuple[Trajectory, np.ndarray, list[str]]:
     """The setpoints that start ``job`` at ``start_segment`` (0-based) from where ``card`` stands, the
     original row of each (-1 on the approach), and what that assumes."""
     motion, machine = job.motion, card.machine
-    pos, seg, period = _rows(motion)
+    pos, seg, period, _axes = card.setpoint_rows(motion)
     names = machine.names
     here = card.position()
     nominal = np.tile(here, (len(pos), 1))
     for k, axis in enumerate(motion.axes):
         nominal[:, names.index(axis)] = pos[:, k]
     sig = motion.signals.merged(job.signals)
-    sig_rows = np.clip(np.ceil(np.asarray(sig.t) / period - 1e-9).astype(int), 0, len(pos) - 1)
+    sig_rows = sig.rows(period, 0, len(pos) - 1)
     signals = sorted(((int(r), str(k), int(c), float(v)) for r, k, c, v in  # the tool drives no LinuxCNC output
                       zip(sig_rows, sig.kind, sig.channel, sig.value) if k != "tool"), key=lambda s: s[0])
     state = card.state()
@@ -49,7 +40,7 @@ def start_motion(job, card, start_segment: int) -> tuple[Trajectory, np.ndarray,
     shift = plan.junction - plan.program_row
     new_sig = Signal([row * period for row, *_ in plan.signals], [s[1] for s in plan.signals],
                      [s[2] for s in plan.signals], [s[3] for s in plan.signals])
-    own_rows = np.clip(np.ceil(np.asarray(motion.signals.t) / period - 1e-9).astype(int), 0, len(pos) - 1)
+    own_rows = motion.signals.rows(period, 0, len(pos) - 1)
     new_rows = np.array([row for row, *_ in plan.signals], dtype=int)
     events = []
     for e in motion.events:  # the stops from the start on, after the same signals as in the program

@@ -83,8 +83,8 @@ def trajectory_lines(positions: np.ndarray, axes, period: float, signals: Signal
     last = max(len(pos) - 1, 1)
     by_row: dict[int, list[str]] = {}
     if signals is not None:
-        for t, kind, channel, value in zip(signals.t, signals.kind, signals.channel, signals.value):
-            row = min(max(int(np.ceil(t / period - 1e-9)), 1), last)
+        for row, t, kind, channel, value in zip(signals.rows(period, 1, last).tolist(), signals.t, signals.kind,
+                                                 signals.channel, signals.value):
             words = _signal_words(str(kind), int(channel), float(value), f"signal at t={t:g} s")
             if words:
                 by_row.setdefault(row, []).append(words)
@@ -228,6 +228,16 @@ class LinuxCNCCard(MotionCard):
                                   "or a timed step stream", where="linuxcnc")
             return motion.positions(), motion.tick, motion.axes
         return motion.positions, motion.period, motion.axes
+
+    @staticmethod
+    def setpoint_rows(motion: Trajectory | Steps) -> tuple[np.ndarray, np.ndarray, float, tuple[str, ...]]:
+        """``setpoints`` with the segment of each row: a step stream's row 0 is its origin, before its
+        first step, and counts as the first step's segment."""
+        positions, period, axes = LinuxCNCCard.setpoints(motion)
+        positions = np.asarray(positions, dtype=float)
+        n = len(positions)
+        seg = np.asarray(motion.segment if motion.segment is not None else np.zeros(n, dtype=np.int64))
+        return positions, (seg if len(seg) == n else np.concatenate([seg[:1], seg])[:n]), period, axes
 
     def home(self, axes: tuple[str, ...] | None = None, method: str = "switch") -> DeviceLog:
         """LinuxCNC homes in place (HOME_SEARCH_VEL = 0): the named axes become 0 where they stand."""
