@@ -164,3 +164,32 @@ def test_click_selects_drag_moves_and_the_camera_stays_flat(browser, editor):
     assert (np.cos(azimuth2), np.sin(azimuth2)) == pytest.approx((np.cos(azimuth), np.sin(azimuth)), abs=1e-6)
     assert not np.allclose(before, after)
     page.close()
+
+
+_WIRE_LOOK = """() => { const o = window.__viserMutable.nodeRefFromName['/canvas/wires']; const out = [];
+  o.traverse(c => { if (c.material && c.material.type === 'LineMaterial') out.push([c.material.worldUnits, c.material.linewidth]); });
+  const m = window.__viserMutable, mat = m.backgroundMaterial, quad = m.scene.children.find(c => c.isMesh && c.material === mat);
+  return [out, quad ? quad.visible : null]; }"""
+
+
+def test_frames_skip_unseen_work_and_wires_follow_the_zoom(browser, editor):
+    """One cheap pass per wire (screen pixels, thickness set from the zoom) and no background-image quad
+    while no image is set: the two largest items of a frame under software WebGL."""
+    ui = EditorPage(browser, editor)
+    ui.open()
+    ui.dismiss_toasts()
+    page = ui.page
+    page.wait_for_function(f"({_WIRE_LOOK})()[1] === false", timeout=10000)  # the page script hid the quad
+    lines, _quad = page.evaluate(_WIRE_LOOK)
+    assert lines == [[False, pytest.approx(editor.canvas.wire_px)]]  # one pass, screen units
+    before = editor.canvas.wire_px
+    ui.settled()
+    x, y = ui.screen(*ui.box("shift").centre)
+    page.mouse.move(x, y)
+    for _ in range(4):
+        page.mouse.wheel(0, -400)  # zoom in
+        page.wait_for_timeout(150)
+    ui.settled()
+    wait_until(lambda: editor.canvas.wire_px > before + 0.5, what="thicker wires zoomed in")
+    page.wait_for_function(f"({_WIRE_LOOK})()[0][0][1] === {editor.canvas.wire_px}", timeout=10000)
+    page.close()
