@@ -12,8 +12,8 @@ frame drawn for the click itself (viser's drag layer asks for one on press and r
 on screen changes) and behind the hover outline's frame. So frames asked for between a press on the
 canvas and the editor's answer (the first frame a server message asks for) wait for that answer, at
 most ``HOLD_MS``, and then ``ANSWER_MS`` more: the side panel's text, which viser applies with the
-same messages, reaches the page before the frame takes the thread. A drag or a pan draws at once. A hover outline is drawn ``HOVER_MS`` late, or with
-the click's answer when a press comes first.
+same messages, reaches the page before the frame takes the thread. A drag or a pan draws at once.
+A hover outline is drawn ``HOVER_MS`` late, or with the click's answer when a press comes first.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ _JS = """
   // requestRender and also from inside its own code, so the hold is kept where frames are drawn.
   const real = m.requestRender;
   if (!real || !m.canvas || !m.scene) return;
-  const st = window.__flowmcFrames = { until: 0, held: 0, hover: null, at: null, answered: false };
+  const st = window.__flowmcFrames = { until: 0, held: 0, drawn: 0, hover: null, at: null, answered: false };
   const release = () => { if (st.until) { st.until = 0; real(); } };  // the frame: everything held, drawn at once
   m.requestRender = function () {
     const e = window.event;
@@ -65,16 +65,19 @@ _JS = """
     const draw = renderer.render;
     renderer.render = function (scene) {
       if (scene === m.scene && st.until && performance.now() < st.until) { st.held += 1; return; }
+      if (scene === m.scene) st.drawn += 1;  // frames really drawn (benchmarks/editor.py waits for one)
       return draw.apply(this, arguments);
     };
   };
   const before = m.scene.onBeforeRender;
-  m.scene.onBeforeRender = function (renderer) { m.scene.onBeforeRender = before; hook(renderer); return before.apply(this, arguments); };
+  m.scene.onBeforeRender = function (renderer) {  // the renderer, once, from inside its first frame
+    m.scene.onBeforeRender = before; hook(renderer); return before.apply(this, arguments);
+  };
   real();
   m.canvas.addEventListener("pointerdown", (e) => {
     if (e.button !== 0) return;
     st.until = performance.now() + HOLD_MS; st.at = [e.clientX, e.clientY]; st.answered = false;
-    if (st.hover) { clearTimeout(st.hover); st.hover = null; }  // drawn with the answer
+    if (st.hover) { clearTimeout(st.hover); st.hover = null; }  // the outline comes with the answer's frame
     setTimeout(() => { if (st.until && performance.now() >= st.until) release(); }, HOLD_MS + 5);
   }, true);
   window.addEventListener("pointermove", (e) => {  // a drag or a pan draws as it goes
