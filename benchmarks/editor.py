@@ -42,7 +42,7 @@ _ARM = """() => { window.__flowmcClick = null;
 _WAIT_SELECTED = """([index, red, text]) => new Promise(resolve => {
   const frameOf = () => { const o = window.__viserMutable.nodeRefFromName['/canvas/frame']; let m = null;
     o.traverse(c => { if (c.isInstancedMesh && !m) m = c; }); return m; };
-  let scene = null, dom = null;
+  let scene = null, dom = null, drawnAt = null;
   const poll = () => {
     const now = performance.now(), m = frameOf();
     if (scene === null && m && index < (m.instancesCount ?? m.count)) {
@@ -50,7 +50,9 @@ _WAIT_SELECTED = """([index, red, text]) => new Promise(resolve => {
       if (Math.abs(c.r - red) < 0.01) scene = now;
     }
     if (dom === null && document.body.innerText.includes(text)) dom = now;
-    if (scene !== null && dom !== null) {
+    const frames = window.__flowmcFrames;  // where the page holds frames back: wait for one really drawn
+    if (scene !== null && drawnAt === null) drawnAt = frames ? frames.drawn : -1;
+    if (scene !== null && dom !== null && (drawnAt < 0 || frames.drawn > drawnAt)) {
       requestAnimationFrame(() => resolve([scene, performance.now(), dom, window.__flowmcClick]));
     } else if (now - window.__flowmcClick > 10000) { resolve(null); } else { requestAnimationFrame(poll); }
   };

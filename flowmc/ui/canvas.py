@@ -20,7 +20,7 @@ import viser
 
 from flowmc.errors import GraphError
 from flowmc.graph import split_ref
-from flowmc.ui import camera, layout, structures, viser_internals
+from flowmc.ui import camera, canvas_frames, layout, structures, viser_internals
 from flowmc.ui import canvas_draw as draw
 from flowmc.ui.canvas_text import Texts
 from flowmc.ui.canvas_wiring import WireDrag
@@ -33,7 +33,8 @@ from flowmc.ui.text import plain
 __all__ = ["Canvas"]
 
 _BATCHES = ("comment", "notebar", "frame", "body", "title", "badge", "ports")
-WIRE_WORLD = 0.035  # wire thickness, world units (3.5 canvas px)
+WIRE_CANVAS_PX = 3.5  # wire thickness in canvas px: drawn in screen px, set from the zoom (see _wire_px)
+WIRE_MIN_PX, WIRE_MAX_PX = 1.5, 8.0  # readable zoomed out, not a ribbon zoomed in
 LABEL_FONT = 15.0  # free labels and comment titles, canvas px
 COMMENT_FONT = 14.0
 MIN_TITLE_PX = 8.0  # node titles on screen at Fit, at least, when the graph is not much bigger than the view
@@ -68,6 +69,7 @@ class Canvas:
         self._tips: list[tuple[float, float, float, float, str]] = []
         self._port_memo: tuple[tuple, draw.Quads] | None = None
         self._wire_memo: tuple[tuple, np.ndarray, np.ndarray, dict] | None = None
+        self.wire_px = WIRE_CANVAS_PX  # wires' screen thickness for the current zoom
         scene = server.scene
         scene.set_up_direction("+y")
         scene.configure_default_lights(False)
@@ -128,6 +130,7 @@ class Canvas:
                 self.fit([client])
 
         camera.setup(client, frame_again)
+        canvas_frames.install(client)
         client.camera.on_update(lambda cam: self._zoomed(cam))
         self._send_tips([client])
         if self.theme is not draw.LIGHT:  # viser's own label colours are the light theme's
@@ -135,8 +138,20 @@ class Canvas:
 
     def _zoomed(self, cam: Any) -> None:
         per_px = camera.screen_px_per_world(cam)
-        if per_px is not None and self.texts.zoom(per_px * layout.SCALE):
+        if per_px is not None and (self.texts.zoom(per_px * layout.SCALE) | self._wire_zoom(per_px * layout.SCALE)):
             self.server.flush()
+
+    def _wire_zoom(self, screen_px_per_canvas_px: float) -> bool:
+        """Wires are drawn in screen pixels (a world-unit line costs two passes of a heavy shader, the largest
+        item of a frame under software WebGL); their thickness follows the zoom here. True when it changed."""
+        px = float(np.clip(WIRE_CANVAS_PX * screen_px_per_canvas_px, WIRE_MIN_PX, WIRE_MAX_PX))
+        if abs(px - self.wire_px) < 0.25:
+            return False
+        self.wire_px = px
+        handle = self._handles.get("wires")
+        if handle is not None:
+            handle.thickness = px
+        return True
 
     def fit(self, clients: list[viser.ClientHandle] | None = None) -> None:
         """Frame every node and note (the middle of the sheet when there are none) in each client's view."""
@@ -145,6 +160,7 @@ class Canvas:
             per_px = camera.initial(self.server, box)
             if not self.server.get_clients():  # details (port names, previews) only if the first view can read them
                 self.texts.zoom(per_px * layout.SCALE)
+                self._wire_zoom(per_px * layout.SCALE)
         for client in clients if clients is not None else list(self.server.get_clients().values()):
             camera.frame(client, box, legible=MIN_TITLE_PX / (layout.TITLE_FONT * layout.SCALE))
 
@@ -341,7 +357,7 @@ class Canvas:
         handle = self.server.scene.add_batched_meshes_simple(
             f"/canvas/{name}", draw.QUAD_VERTICES, draw.QUAD_FACES, np.tile([1.0, 0, 0, 0], (len(quads), 1)),
             quads.positions, batched_scales=quads.scales, batched_colors=quads.colors, lod="off", side="double",
-            cast_shadow=False, receive_shadow=False)
+            material="toon3", cast_shadow=False, receive_shadow=False)  # toon: same colours under ambient light, a cheaper shader
         drag = {"body": self._on_drag, "notebar": self._on_note_drag, "ports": self.wiring.on_drag}.get(name)
         if drag is not None:
             handle.on_drag("left")(drag)
@@ -356,8 +372,8 @@ class Canvas:
         if handle is not None:
             self._handles.pop("wires").remove()
         if len(segs):
-            self._handles["wires"] = self.server.scene.add_line_segments("/canvas/wires", segs, cols,
-                                                                         thickness=WIRE_WORLD)
+            self._handles["wires"] = self.server.scene.add_line_segments("/canvas/wires", segs, cols, thickness=self.wire_px,
+                                                                         thickness_units="screen")
 
     def _texts(self) -> dict[str, tuple[str, tuple[float, float], float, str, bool]]:
         """Every label: titles (always shown), and port names, previews, status lines (details)."""

@@ -56,8 +56,6 @@ DARK = Theme(
 THEMES = {"light": LIGHT, "dark": DARK}
 STATUS_COLORS = LIGHT.status
 FRAME_SELECTED = LIGHT.selected
-WIRE_PX = 3.0  # wire thickness on screen; a selected wire is thicker
-WIRE_SELECTED_PX = 5.0
 
 # A unit quad hanging down-right from its position (top-left corner), facing +z.
 QUAD_VERTICES = np.array([[0, 0, 0], [1, 0, 0], [1, -1, 0], [0, -1, 0]], dtype=np.float32)

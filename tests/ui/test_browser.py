@@ -3,10 +3,12 @@ example graph, used the way a person would: palette, wiring clicks, Run, Save, r
 
 from __future__ import annotations
 
+import io
 import re
 
 import numpy as np
 import pytest
+from PIL import Image
 
 import flowmc
 from browser_helpers import EditorPage, expected, wait_until
@@ -163,4 +165,57 @@ def test_click_selects_drag_moves_and_the_camera_stays_flat(browser, editor):
     assert polar2 == pytest.approx(polar, abs=1e-6)  # panned and zoomed, never tilted or turned
     assert (np.cos(azimuth2), np.sin(azimuth2)) == pytest.approx((np.cos(azimuth), np.sin(azimuth)), abs=1e-6)
     assert not np.allclose(before, after)
+    page.close()
+
+
+_WIRE_LOOK = """() => { const o = window.__viserMutable.nodeRefFromName['/canvas/wires']; const out = [];
+  o.traverse(c => { if (c.material && c.material.type === 'LineMaterial') out.push([c.material.worldUnits, c.material.linewidth]); });
+  const m = window.__viserMutable, mat = m.backgroundMaterial, quad = m.scene.children.find(c => c.isMesh && c.material === mat);
+  return [out, quad ? quad.visible : null]; }"""
+
+
+def test_frames_skip_unseen_work_and_wires_follow_the_zoom(browser, editor):
+    """One cheap pass per wire (screen pixels, thickness set from the zoom) and no background-image quad
+    while no image is set: the two largest items of a frame under software WebGL."""
+    ui = EditorPage(browser, editor)
+    ui.open()
+    ui.dismiss_toasts()
+    page = ui.page
+    page.wait_for_function(f"({_WIRE_LOOK})()[1] === false", timeout=10000)  # the page script hid the quad
+    lines, _quad = page.evaluate(_WIRE_LOOK)
+    assert lines == [[False, pytest.approx(editor.canvas.wire_px)]]  # one pass, screen units
+    before = editor.canvas.wire_px
+    ui.settled()
+    x, y = ui.screen(*ui.box("shift").centre)
+    page.mouse.move(x, y)
+    for _ in range(4):
+        page.mouse.wheel(0, -400)  # zoom in
+        page.wait_for_timeout(150)
+    ui.settled()
+    wait_until(lambda: editor.canvas.wire_px > before + 0.5, what="thicker wires zoomed in")
+    page.wait_for_function(f"({_WIRE_LOOK})()[0][0][1] === {editor.canvas.wire_px}", timeout=10000)
+    page.close()
+
+
+def test_frames_held_for_a_click_are_drawn_with_its_answer(browser, editor):
+    """A press holds the page's frames until the editor answers; the answer's frame then shows the selection
+    (the pixels, not only the scene's colour), and a press with no answer lets its frames go after the hold."""
+    ui = EditorPage(browser, editor)
+    ui.open()
+    ui.dismiss_toasts()
+    page = ui.page
+    assert page.evaluate("window.__flowmcFrames.until") == 0
+    box = ui.box("shift")
+    edge = ui.screen(box.x + box.w / 2, box.y + 0.03)  # inside the selection frame's top margin, above the body
+    ui.click_node("shift")
+    page.get_by_text("Selected: node shift").wait_for(timeout=10000)
+
+    def drawn_orange() -> bool:
+        shot = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
+        r, g, b = shot[int(round(edge[1])), int(round(edge[0]))]
+        return r > 200 and 90 < g < 190 and b < 90
+
+    wait_until(drawn_orange, 10, "the selection frame drawn")
+    page.mouse.click(*ui.screen(box.x + box.w * 0.6, box.y - box.h * 0.6))  # the same node again: no change, no answer
+    page.wait_for_function("window.__flowmcFrames.until === 0", timeout=5000)
     page.close()
