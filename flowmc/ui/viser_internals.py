@@ -23,6 +23,8 @@ address and in viser's ``websocket`` parameter (a cross-site frame gets no cooki
 runs a cross-site frame in its own process, so the 3D view's work never stalls the editor's canvas.
 If a future viser renames these, the camera orbits again and the extras stop; nothing else depends
 on them.
+Pages are served with viser's client unpacked (``flowmc.ui.viser_client``: the page, its script and its
+decoder are answered here, behind the guard, before viser's own file server would answer).
 viser 1.1.1 has no hook to vet connections or client messages, so ``guarded_server`` adds two
 small layers (``flowmc.ui.guard`` holds the policy; docs/security.md says why):
 - every HTTP request and websocket handshake passes ``Guard.check`` first. viser starts its server
@@ -47,7 +49,10 @@ from typing import Any, Callable
 import viser
 import viser.infra._infra as _infra
 from viser import _messages
+from websockets.datastructures import Headers
+from websockets.http11 import Response
 
+from flowmc.ui import viser_client
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
 __all__ = ["guarded_server", "lock_flat_camera", "fold_narrow_controls", "set_page_title", "install_page", "download",
@@ -371,7 +376,9 @@ def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None) -> 
             for key, value in _SECURITY_HEADERS.items():
                 response.headers[key] = value
             return response
-        response = inner(connection, request) if inner is not None else None
+        response = _client_response(guard, request)
+        if response is None:
+            response = inner(connection, request) if inner is not None else None
         if response is not None:  # a page or file (a websocket handshake returns None and goes on)
             for key, value in _SECURITY_HEADERS.items():
                 response.headers[key] = value
@@ -380,6 +387,24 @@ def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None) -> 
         return response
 
     return process_request
+
+
+def _client_response(guard: Guard, request: Any) -> Response | None:
+    """viser's client as ``viser_client`` serves it (the page, its script and decoder), or None: viser answers."""
+    if request.headers.get("Upgrade") == "websocket":
+        return None
+    path = request.path.partition("?")[0]
+    text = viser_client.page(guard.token) if path in ("/", "/index.html") else None
+    asset = viser_client.Asset("text/html; charset=utf-8", text.encode("utf-8"), None) if text is not None \
+        else viser_client.asset(path)
+    if asset is None:
+        return None
+    zipped = asset.gzipped is not None and "gzip" in request.headers.get("Accept-Encoding", "")
+    body = asset.gzipped if zipped and asset.gzipped is not None else asset.body
+    headers = Headers({"Content-Type": asset.content_type, "Content-Length": str(len(body))})
+    if zipped:
+        headers["Content-Encoding"] = "gzip"
+    return Response(200, "OK", headers, body)
 
 
 def guarded_server(guard: Guard, **kwargs: Any) -> viser.ViserServer:
@@ -405,6 +430,10 @@ def guarded_server(guard: Guard, **kwargs: Any) -> viser.ViserServer:
         raise RuntimeError("viser did not start its server through websockets.asyncio.server.serve: "
                            "flowmc cannot guard this viser version")
     _filter_client_messages(server)
+    # The served client starts with neither (viser_client); the server's state says the same to every page.
+    server.scene.configure_default_lights(False)
+    server.scene.configure_environment_map(None)
+    threading.Thread(target=viser_client.files, name="flowmc-client-unpack", daemon=True).start()
     return server
 
 

@@ -1,0 +1,129 @@
+"""viser 1.1.1's browser client, unpacked once by the server instead of in the page on every load.
+
+viser ships its client as one self-extracting page (``viser/client/build/index.html``, 0.8 MB): on
+every load the page decodes a base-88 text, inflates it with a zstd WebAssembly decoder and then hands
+2.5 MB of script to the main thread as an inline module, which the browser must compile there before
+anything else happens. Here the server unpacks it once per process (``files``) and serves the page as
+an ordinary one (``page``): the stylesheet inline, the script as a file (``/flowmc-client/app.js``)
+that the browser fetches and compiles while it parses the page, and the zstd decoder as a
+``.wasm`` file (the client also decodes the server's messages with it, and finds it on
+``globalThis.__viserZstdWasm``, where viser's own loader puts it).
+
+One start-up default is changed on the way: the client starts with viser's default lights and its
+built-in HDRI environment map until the server's first messages say otherwise, and under software
+WebGL loading and prefiltering that map (then recompiling every material without it) took seconds.
+flowmc's scenes use neither (``guarded_server`` configures both off), so the served client starts
+without them (``_PLAIN_START``).
+
+If the installed viser's page does not have the shape this expects, ``files()`` is None and viser
+serves its own page, as before (slower, nothing else changes); tests/ui/test_viser_client.py fails then.
+"""
+
+from __future__ import annotations
+
+import functools
+import gzip
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import viser
+import zstandard
+
+__all__ = ["ClientFiles", "files", "page", "asset", "PREFIX"]
+
+PREFIX = "/flowmc-client/"
+_INDEX = Path(viser.__file__).parent / "client" / "build" / "index.html"
+_ALPHABET = "".join(chr(c) for c in range(0x21, 0x7F) if chr(c) not in "\"&<>'`")  # viser's base-88 digits
+_PAYLOAD = re.compile(r'<script data-p="([^"]*)" data-ss="(\d+)" data-cs="(\d+)">(.*?)</script>', re.S)
+_WASM = re.compile(r'gzWasm="((?:[^"\\]|\\.)*)"')
+# The client's environment before the server configures one: default lights on, the built-in HDRI (null).
+_DEFAULT_START = "enableDefaultLights:!0,enableDefaultLightsShadows:!0,environmentMap:null,"
+_PLAIN_START = ("enableDefaultLights:!1,enableDefaultLightsShadows:!1,environmentMap:{type:`EnvironmentMapMessage`,"
+                "hdri_data:null,background:!1,background_blurriness:0,background_intensity:1,"
+                "background_wxyz:[1,0,0,0],environment_intensity:1,environment_wxyz:[1,0,0,0]},")
+
+
+class Asset(NamedTuple):
+    content_type: str
+    body: bytes
+    gzipped: bytes | None  # the body gzip-compressed, for browsers that accept it (None: not worth it)
+
+
+@dataclass(frozen=True)
+class ClientFiles:
+    head: str  # viser's <head> up to its loader (charset, icon, title)
+    css: str
+    assets: dict[str, Asset]  # by name under PREFIX
+
+
+def _base88(text: str) -> bytes:
+    """viser's base-88 text (5 characters for 4 bytes, big-endian) back to bytes."""
+    lut = np.zeros(128, np.int64)
+    lut[[ord(c) for c in _ALPHABET]] = np.arange(88)
+    whole, rest = divmod(len(text), 5)
+    digits = lut[np.frombuffer(text[:whole * 5].encode("ascii"), np.uint8).reshape(whole, 5)]
+    value = np.zeros(whole, np.int64)
+    for k in range(5):
+        value = value * 88 + digits[:, k]
+    out = value.astype(">u4").tobytes()
+    if rest:
+        tail = 0
+        for c in text[whole * 5:]:
+            tail = tail * 88 + _ALPHABET.index(c)
+        out += tail.to_bytes(rest - 1, "big")
+    return out
+
+
+def _asset(content_type: str, body: bytes) -> Asset:
+    return Asset(content_type, body, gzip.compress(body, 1) if len(body) > 4096 else None)
+
+
+@functools.cache
+def files() -> ClientFiles | None:
+    """The unpacked client (once per process), or None when viser's page is not the expected shape."""
+    try:
+        html = _INDEX.read_text("utf-8")
+        found = _PAYLOAD.search(html)
+        wasm_text = _WASM.search(found.group(4)) if found else None
+        if found is None or wasm_text is None:
+            return None
+        styles, scripts = int(found.group(2)), int(found.group(3))
+        raw = zstandard.ZstdDecompressor().decompress(_base88(found.group(1)), max_output_size=styles + scripts)
+        script = raw[styles:].decode("utf-8")
+        if len(raw) != styles + scripts or script.count(_DEFAULT_START) != 1:
+            return None
+        script = script.replace(_DEFAULT_START, _PLAIN_START)
+        wasm = gzip.decompress(_base88(wasm_text.group(1).replace("\\\\", "\\")))
+        if wasm[:4] != b"\0asm":
+            return None
+    except (OSError, ValueError, zstandard.ZstdError, gzip.BadGzipFile):
+        return None
+    head = html[:found.start()].rstrip()
+    return ClientFiles(head, raw[:styles].decode("utf-8"),
+                       {"app.js": _asset("text/javascript; charset=utf-8", script.encode("utf-8")),
+                        "zstd.wasm": _asset("application/wasm", wasm)})
+
+
+def page(token: str) -> str | None:
+    """The client's page: the script and decoder are fetched with ``token`` (a cross-site frame, like the
+    3D view, sends no cookie). None when the client could not be unpacked."""
+    client = files()
+    if client is None:
+        return None
+    query = f"?v={viser.__version__}&token={token}"
+    app, wasm = f"{PREFIX}app.js{query}", f"{PREFIX}zstd.wasm{query}"
+    return (f'{client.head}\n<style>{client.css}</style>\n<link rel="modulepreload" href="{app}" />\n'
+            f'<script type="module">globalThis.__viserZstdWasm = await WebAssembly.compileStreaming(fetch("{wasm}"));\n'
+            f'await import("{app}");</script>\n</head>\n<body>\n<noscript>You need to enable JavaScript to run this app.'
+            f'</noscript>\n<div id="root"></div>\n</body>\n</html>\n')
+
+
+def asset(path: str) -> Asset | None:
+    """The file served at ``path`` (under ``PREFIX``, query stripped), if it is one of the client's."""
+    client = files()
+    if client is None or not path.startswith(PREFIX):
+        return None
+    return client.assets.get(path[len(PREFIX):])

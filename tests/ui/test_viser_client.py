@@ -1,0 +1,74 @@
+"""The editor serves viser's client unpacked (flowmc.ui.viser_client): the page is an ordinary one that fetches
+the script and the zstd decoder as files, behind the same guard as the page, and the client starts without
+viser's default lights and HDRI environment (which flowmc's scenes never use). A real browser runs it."""
+
+from __future__ import annotations
+
+import gzip
+import urllib.error
+import urllib.request
+
+import pytest
+
+from browser_helpers import EditorPage, chromium
+from editor_graphs import example_file
+from flowmc.ui import viser_client
+
+
+def _get(url, headers=None):
+    request = urllib.request.Request(url, headers=headers or {})
+    try:
+        with urllib.request.urlopen(request, timeout=20) as response:
+            return response.status, dict(response.headers), response.read()
+    except urllib.error.HTTPError as err:
+        return err.code, dict(err.headers), err.read()
+
+
+@pytest.fixture
+def editor(tmp_path, open_editor):
+    return open_editor(example_file(tmp_path), extensions=False)
+
+
+def test_the_installed_viser_client_unpacks_and_starts_plain():
+    client = viser_client.files()
+    assert client is not None, "viser's index.html is not the shape viser_client expects: the editor serves it packed"
+    script = client.assets["app.js"].body.decode()
+    assert viser_client._PLAIN_START in script and viser_client._DEFAULT_START not in script
+    assert "createRoot" in script and len(script) > 1_000_000
+    assert client.assets["zstd.wasm"].body[:4] == b"\0asm"
+    assert gzip.decompress(client.assets["app.js"].gzipped) == client.assets["app.js"].body
+    assert ".mantine-" in client.css and "<title>" in client.head
+
+
+def test_the_page_and_its_files_are_served_behind_the_guard(editor):
+    port, token = editor.server.get_port(), editor.guard.token
+    status, headers, body = _get(editor.url)
+    page = body.decode()
+    assert status == 200 and headers["Content-Type"].startswith("text/html")
+    assert "data-p=" not in page and f'{viser_client.PREFIX}app.js?v=' in page and f"token={token}" in page
+    base = f"http://127.0.0.1:{port}{viser_client.PREFIX}"
+    status, headers, body = _get(f"{base}app.js?token={token}", {"Accept-Encoding": "gzip"})
+    assert status == 200 and headers["Content-Encoding"] == "gzip" and headers["Cache-Control"] == "no-store"
+    assert gzip.decompress(body) == viser_client.files().assets["app.js"].body
+    status, headers, body = _get(f"{base}zstd.wasm?token={token}")
+    assert status == 200 and headers["Content-Type"] == "application/wasm" and body[:4] == b"\0asm"
+    assert _get(f"{base}app.js")[0] == 403  # no token, no cookie
+    assert _get(f"{base}app.js?token=wrong")[0] == 403
+    assert _get(f"{base}other.js?token={token}")[0] == 404  # viser's own server: not a file of its client
+
+
+def test_a_browser_runs_the_served_client_without_the_default_environment(editor):
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        errors: list[str] = []
+        ui.page.on("pageerror", lambda e: errors.append(str(e)))
+        ui.open(timeout=60)
+        assert ui.page.evaluate("document.querySelector('script[data-p]') === null")
+        assert ui.page.evaluate("globalThis.__viserZstdWasm instanceof WebAssembly.Module")
+        # no environment map ever set on the scene, and no default directional lights
+        assert ui.page.evaluate("window.__viserMutable.scene.environment === null")
+        lights = ui.page.evaluate("""() => { let n = 0; window.__viserMutable.scene.traverse(o => {
+            if (o.isDirectionalLight) n++; }); return n; }""")
+        assert lights == 0
+        assert errors == []
+        ui.page.close()
