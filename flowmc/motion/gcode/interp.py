@@ -421,9 +421,11 @@ class Interpreter:
         if block.oword is not None:
             label, keyword, args = block.oword
             label = label if type(label) in (str, int) else value_function(label, params, computed)
-            block.oword = (label, keyword, [value_function(a, params, computed) for a in args])
-            if keyword == "call":
+            if keyword == "call":  # its arguments are read by ``run`` only, in one function
+                block.oword = (label, keyword, args)
                 block.run = value_list(args, params, computed)
+            else:
+                block.oword = (label, keyword, [value_function(a, params, computed) for a in args])
         else:
             block.run = compile_block(block, params, computed)
 

@@ -35,6 +35,12 @@ _NUMERIC = np.zeros(256, dtype=bool)
 _NUMERIC[list(b"0123456789.")] = True
 _AFTER_CODE = np.zeros(256, dtype=bool)  # a number after these is part of the shape
 _AFTER_CODE[list(b"#OGM")] = True
+_SIGN_AFTER = np.zeros(256, dtype=bool)  # a '-' after these is a sign
+_SIGN_AFTER[list(b"[XYZIJKR")] = True
+_OPERATOR = np.zeros(256, dtype=bool)
+_OPERATOR[list(b"+*/")] = True
+_OPERAND_END = np.zeros(256, dtype=bool)
+_OPERAND_END[list(b"0123456789]")] = True
 
 
 class Templates:
@@ -90,9 +96,11 @@ class Templates:
             label, keyword, args = block.oword
             if type(label) is not str and type(label) is not int:
                 label = value_function(label, params, computed, slots)
-            block.oword = (label, keyword, [value_function(a, params, computed, slots) for a in args])
-            if keyword == "call":
+            if keyword == "call":  # its arguments are read by ``run`` only, in one function
+                block.oword = (label, keyword, args)
                 block.run = value_list(args, params, computed, slots)
+            else:
+                block.oword = (label, keyword, [value_function(a, params, computed, slots) for a in args])
         else:
             block.run = compile_block(block, params, computed, slots)
         return block, slots
@@ -132,6 +140,11 @@ def _split(src, first: int) -> tuple:
     newlines = np.flatnonzero(chars == 10)
     bad_lines = np.searchsorted(newlines, starts[run_dots > 1])
     starts, ends = starts[literal], ends[literal]
+    # A minus that can only be a sign joins its number ("X-5" and "X5", "[a + -5]" and "[a + 5]" share a
+    # shape): right after a word letter or '[', or after '+', '*' or '/' that follow a number or ']'.
+    pad = np.concatenate((np.full(3, 10, dtype=np.uint8), chars))  # pad[s + 3 - j] is chars[s - j]
+    prev = pad[starts + 1]
+    starts = starts - ((pad[starts + 2] == 45) & (_SIGN_AFTER[prev] | (_OPERATOR[prev] & _OPERAND_END[pad[starts]])))
     inside = np.bincount(starts + 1, minlength=n + 1) - np.bincount(ends, minlength=n + 1)
     keep = np.cumsum(inside[:n]) == 0
     marked = chars.copy()
