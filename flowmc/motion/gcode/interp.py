@@ -346,6 +346,8 @@ class Interpreter:
                 if block is _UNREAD:
                     block = self.cached_block(src, i)
             else:
+                if src is main and self._run_top(src, i, templates, run_ends):
+                    continue
                 block = templates.block(src, i)
                 if block is None:
                     block = src.parse(i)
@@ -374,6 +376,58 @@ class Interpreter:
                 raise self._error(src, i, str(exc)) from None
             if canon.sealed + len(canon.kind) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
+
+    def _run_top(self, src: Source, i: int, templates: Templates, run_ends) -> int:
+        """Top-level lines from ``i`` through their templates in one Python loop, not one trip round the
+        main loop a line: moves, settings and calls of compiled subroutines, each with the main loop's
+        line and segment budgets, line number and errors. Stops (returning how many lines it ran, with
+        ``pc`` past them) before a line it does not take, the start of a plain run, or the end of the
+        chunk; after a call that leaves a frame open, and at the program's end."""
+        first, keys, numbers, ends = templates.split(src, i)[1:]
+        stop = min(first + len(keys), src.end)
+        if self.options.block_delete or self.loops:
+            return 0
+        canon, max_blocks, max_segments = self.canon, self.max_blocks, self.max_segments
+        shape_of = templates.shape
+        done = 0
+        for j in range(i, stop):
+            key = keys[j - first]
+            if key is None or (run_ends is not None and run_ends[j] - j >= _FAST_MIN_RUN):
+                break
+            shape = shape_of(key)
+            if shape is None:
+                break
+            block, slots = shape
+            oword = block.oword
+            if block.delete or (oword is not None and oword[1] != "call"):
+                break
+            if slots is not None:
+                end = ends[j - first]
+                slots[:] = numbers[end - len(slots):end]
+            self.pc = j + 1
+            done += 1
+            self.blocks_run += 1
+            if self.blocks_run > max_blocks:
+                raise self._error(src, j, _too_many_lines(max_blocks))
+            self.line_no = j + 1
+            self.file_index = src.index
+            try:
+                if oword is not None:
+                    self._oword(block, src, j)
+                    self._run_body()
+                elif block.run is not None:
+                    rest = block.run(self, src, j, True)
+                    if rest is not None:
+                        self._run_values(block, *rest, src, j)
+                else:
+                    self._block(block, src, j)
+            except (InterpError, EvalError, ArcError) as exc:
+                raise self._error(src, j, str(exc)) from None
+            if canon.sealed + len(canon.kind) > max_segments:
+                raise self._error(src, j, _too_many_segments(max_segments))
+            if self.ended or self.frames or self.loops:
+                break
+        return done
 
     def cached_block(self, src: Source, i: int) -> Block | None:
         """Line i of src parsed and, when it has values to work out or is an O-word, compiled; kept,

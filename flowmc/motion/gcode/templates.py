@@ -52,6 +52,22 @@ class Templates:
         self.shapes: dict[str, tuple | None] = {}
         self.chunk: tuple | None = None  # the lines last split (``_split``)
 
+    def split(self, src, i: int) -> tuple:
+        """The split chunk holding line ``i`` of ``src`` (see ``_split``)."""
+        chunk = self.chunk
+        if chunk is None or chunk[0] is not src or not 0 <= i - chunk[1] < _CHUNK:
+            chunk = self.chunk = _split(src, i - i % _CHUNK)
+        return chunk
+
+    def shape(self, key: str):
+        """The (block, slots) of a shape key, compiled at its first line; None when it is not taken."""
+        shape = self.shapes.get(key, _NEW)
+        if shape is _NEW:
+            if len(self.shapes) >= _MAX_SHAPES:
+                return None
+            shape = self.shapes[key] = self._compile(key.split("$"))
+        return shape
+
     def block(self, src, i: int) -> Block | None:
         """The Block of line ``i`` of ``src`` through its template, its slots filled; None when the line
         is not one to take this way (the caller parses it as usual)."""
