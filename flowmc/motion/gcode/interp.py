@@ -18,7 +18,7 @@ from __future__ import annotations
 import bisect
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import flowmc.budget as budget
 import flowmc.motion.gcode.codes as C
@@ -79,19 +79,23 @@ class GcodeOptions:
     max_warnings: int = 100
 
 
-@dataclass
 class _Frame:
-    """One subroutine call: where to return, the caller's #1-#30 and locals, open loops."""
+    """One subroutine call: where to return, the caller's #1-#30 and locals, open loops (a plain
+    class with slots: one is made for every call)."""
 
-    source: Source
-    return_line: int
-    saved: list
-    locals: dict
-    label: object
-    return_source: Source
-    loops: dict = field(default_factory=dict)
-    autorestore: dict | None = None
-    saved_state: dict | None = None
+    __slots__ = ("source", "return_line", "saved", "locals", "label", "return_source", "loops", "autorestore",
+                 "saved_state")
+
+    def __init__(self, source: Source, return_line: int, saved: list, locals: dict, label, return_source: Source):
+        self.source = source
+        self.return_line = return_line
+        self.saved = saved
+        self.locals = locals
+        self.label = label
+        self.return_source = return_source
+        self.loops: dict = {}
+        self.autorestore: dict | None = None
+        self.saved_state: dict | None = None
 
 
 def _rotate(x: float, y: float, c: float, s: float) -> tuple[float, float]:
@@ -543,16 +547,16 @@ class Interpreter:
     def _oword(self, block, src: Source, i: int) -> None:
         label_node, keyword, args = block.oword
         label = self._label(label_node)
+        if keyword == "call":
+            run = block.run  # a compiled call's arguments in one call
+            self._call(label, run() if run is not None else [evaluate(a, self.params) for a in args], src, i)
+            return
         loops = self._open_loops()
         if keyword == "sub":
             if label not in self.subs:
                 self.subs[label] = (src, i)
             end, _ = self._scan(src, i + 1, label, ("endsub",))
             self.pc = end + 1
-            return
-        if keyword == "call":
-            run = block.run  # a compiled call's arguments in one call
-            self._call(label, run() if run is not None else [evaluate(a, self.params) for a in args], src, i)
             return
         if keyword in ("endsub", "return"):
             if not self.frames or self.frames[-1].label != label:
@@ -698,10 +702,8 @@ class Interpreter:
         source, at = self._find_sub(label, src)
         num = self.params.num
         saved = num[1:31]
-        for k, value in enumerate(args):
-            num[k + 1] = value
-        frame = _Frame(source=source, return_line=i + 1, saved=saved, locals=self.params.locals, label=label,
-                       return_source=src)
+        num[1:len(args) + 1] = args
+        frame = _Frame(source, i + 1, saved, self.params.locals, label, src)
         self.params.locals = {}
         self.value = 0.0
         self.value_returned = 0.0
