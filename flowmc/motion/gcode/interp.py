@@ -392,13 +392,15 @@ class Interpreter:
         if self.options.block_delete or self.loops:
             return 0
         canon, max_blocks, max_segments = self.canon, self.max_blocks, self.max_segments
-        shape_of = templates.shape
+        shapes, shape_of = templates.shapes, templates.shape
         done = 0
         for j in range(i, stop):
             key = keys[j - first]
             if key is None or (run_ends is not None and run_ends[j] - j >= _FAST_MIN_RUN):
                 break
-            shape = shape_of(key)
+            shape = shapes.get(key, _UNREAD)
+            if shape is _UNREAD:
+                shape = shape_of(key)
             if shape is None:
                 break
             block, slots = shape
