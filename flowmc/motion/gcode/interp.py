@@ -398,9 +398,9 @@ class Interpreter:
             key = keys[j - first]
             if key is None or (run_ends is not None and run_ends[j] - j >= _FAST_MIN_RUN):
                 break
-            shape = shapes.get(key, _UNREAD)
-            if shape is _UNREAD:
-                shape = shape_of(key)
+            shape = shapes.get(key)
+            if shape is None:
+                shape = shape_of(key)  # a new shape compiled, or None again: a shape not taken
             if shape is None:
                 break
             block, slots = shape
@@ -424,7 +424,8 @@ class Interpreter:
                 elif block.run is not None:
                     rest = block.run(self, src, j, True)
                     if rest is not None:
-                        self._run_values(block, *rest, src, j)
+                        words, gvals, mvals = rest
+                        self._run_values(block, words, gvals, mvals, src, j)
                 else:
                     self._block(block, src, j)
             except (InterpError, EvalError, ArcError) as exc:
