@@ -74,10 +74,40 @@ def test_a_repeated_shape_is_parsed_once(monkeypatch):
         return original(self, texts)
 
     monkeypatch.setattr(templates.Templates, "_compile", counting)
-    lines = ["G1 F100"] + [f"G1 X[{k}.5 * 2] Y-{k}" for k in range(300)]
+    lines = ["G1 F100"] + [f"G1 X[{k}.5 * 2] Y{'-' if k % 2 else ''}{k}" for k in range(300)]
     path = interpret("\n".join(lines) + "\n", "t.ngc").path
     assert path.columns.end[-1].tolist() == [599.0, -299.0, 0.0]
-    assert compiled.count("G1X[$*$]Y-$") == 1
+    assert path.columns.end[-2].tolist() == [597.0, 298.0, 0.0]
+    assert compiled.count("G1X[$*$]Y$") == 1  # a sign joins its number: Y-3 and Y4 share the shape
+    assert not any("-" in shape for shape in compiled)
+
+
+@pytest.mark.parametrize("expression", ["[7 - 3]", "[#100-3]", "[#100 - -3]", "[#100 * -3]", "[#100 + -3 ** 2]",
+                                        "[-3 ** 2]", "[2 ** -3]", "[[#100] - 3]", "[#100 MOD -3]", "[#100 GT -3]",
+                                        "[#100 / -3 - 2]", "-[#100 - 3]"])
+def test_a_minus_reads_as_in_the_ordinary_parse(expression, without_templates):
+    lines = ["G1 F100", "#100 = 5"]
+    for k in range(1, 6):
+        lines += [f"G1 X{expression.replace('3', str(k))} Y-{k}", f"#101 = {expression.replace('3', str(k + 1))}",
+                  "G1 Z#101"]
+    text = "\n".join(lines) + "\n"
+    fast, slow = interpret(text, "t.ngc"), without_templates(text)
+    np.testing.assert_array_equal(fast.path.columns.end, slow.path.columns.end)
+    assert len(fast.path.columns.end) == 11
+
+
+@pytest.mark.parametrize("line", ["G1 X--3", "G1 X+-3", "G1 X[#100 * - -3]", "G1 X[+-3]"])
+def test_a_doubled_sign_reads_as_in_the_ordinary_parse(line, without_templates):
+    text = f"G1 F100\n#100 = 2\n{line}\n{line.replace('3', '4')}\n"
+    try:
+        fast = interpret(text, "t.ngc").path.columns.end.tolist()
+    except GcodeError as exc:
+        fast = (exc.where, exc.message)
+    try:
+        slow = without_templates(text).path.columns.end.tolist()
+    except GcodeError as exc:
+        slow = (exc.where, exc.message)
+    assert fast == slow
 
 
 @pytest.mark.parametrize("line, message", [

@@ -11,6 +11,8 @@ goes on a final zero-second dwell, so nothing is lost.
 
 from __future__ import annotations
 
+from array import array
+
 import numpy as np
 
 import flowmc.budget as budget
@@ -36,15 +38,17 @@ class Canon:
         self.chunks: list[tuple] = []  # sealed rows: (kind, ends, rapid, feed, spindle, file, line) arrays
         self.arc_chunks: list[tuple] = []  # arcs of those chunks: (rows, centres, normals, ccw, turns) arrays
         self.sealed = 0  # rows in the chunks
+        # Numbers go in typed arrays (stored unboxed, side by side: sealing copies them at once); kinds,
+        # flags and file indices are a few shared Python objects, kept in lists.
         self.kind: list[int] = []
-        self.x: list[float] = []
-        self.y: list[float] = []
-        self.z: list[float] = []
+        self.x = array("d")
+        self.y = array("d")
+        self.z = array("d")
         self.rapid: list[bool] = []
-        self.feed: list[float] = []
-        self.spindle: list[float] = []
+        self.feed = array("d")
+        self.spindle = array("d")
         self.file: list[int] = []
-        self.line: list[int] = []
+        self.line = array("q")
         self.arcs: dict[int, tuple] = {}  # index -> (cx, cy, cz, normal_axis, ccw, turns)
         self.dwells: dict[int, float] = {}  # index -> seconds
         self.curves: dict[int, tuple] = {}  # index -> (control points, degree)
@@ -83,15 +87,17 @@ class Canon:
         if not self.kind:
             return
         ends = np.empty((len(self.kind), 3))
-        ends[:, 0] = self.x
-        ends[:, 1] = self.y
-        ends[:, 2] = self.z
+        ends[:, 0] = np.frombuffer(self.x, dtype=float)
+        ends[:, 1] = np.frombuffer(self.y, dtype=float)
+        ends[:, 2] = np.frombuffer(self.z, dtype=float)
         self.chunks.append((np.array(self.kind, dtype=np.int8), ends, np.array(self.rapid, dtype=bool),
-                            np.array(self.feed, dtype=float), np.array(self.spindle, dtype=float),
-                            np.array(self.file, dtype=np.int32), np.array(self.line, dtype=np.int64)))
+                            np.frombuffer(self.feed, dtype=float).copy(), np.frombuffer(self.spindle, dtype=float).copy(),
+                            np.array(self.file, dtype=np.int32), np.frombuffer(self.line, dtype=np.int64).copy()))
         self.sealed += len(self.kind)
-        for column in (self.kind, self.x, self.y, self.z, self.rapid, self.feed, self.spindle, self.file, self.line):
+        for column in (self.kind, self.rapid, self.file):
             column.clear()
+        for numbers in (self.x, self.y, self.z, self.feed, self.spindle, self.line):
+            del numbers[:]
         if self.arcs:
             table = np.array(list(self.arcs.values()), dtype=float)
             self.arc_chunks.append((np.fromiter(self.arcs, dtype=np.int64, count=len(self.arcs)), table[:, :3],

@@ -35,17 +35,19 @@ _CODE: dict[str, CodeType] = {}
 _MAX_CODES = 4096
 
 
+_FIXED = {"binary": X.binary, "function": X.function, "atan2_degrees": X.atan2_degrees, "param_index": X.param_index,
+          "sin": math.sin, "cos": math.cos, "radians": math.radians, "InterpError": InterpError,
+          "centre_ijk": centre_ijk, "SPIRAL_WARN_MM": SPIRAL_WARN_MM}
+
+
 class _Writer:
     """Python text for expression nodes, with the values the text refers to."""
 
     def __init__(self, params, computed, slots):
         self.computed = computed
         self.slots = slots
-        self.env = {"num": params.num, "number": params.number, "named": params.named, "exists": params.exists,
-                    "P": params, "GL": params.globals, "S": slots, "binary": X.binary, "function": X.function,
-                    "atan2_degrees": X.atan2_degrees, "param_index": X.param_index, "sin": math.sin,
-                    "cos": math.cos, "radians": math.radians, "InterpError": InterpError,
-                    "centre_ijk": centre_ijk, "SPIRAL_WARN_MM": SPIRAL_WARN_MM}
+        self.env = {**_FIXED, "num": params.num, "number": params.number, "named": params.named,
+                    "exists": params.exists, "P": params, "GL": params.globals, "S": slots}
         self.count = 0
 
     def bind(self, value) -> str:

@@ -56,13 +56,18 @@ def plain_lines(lines: list[str]) -> tuple[np.ndarray, list[str]]:
     text = "\n".join(lines)
     active = set()
     if "(" in text or ";" in text:
-        for m in _ACTIVE.finditer(text):
-            active.add(m.start())
+        for opener in "(;":  # str.find to each comment, where _ACTIVE is tried: a regex scan is ten times slower
+            pos = text.find(opener)
+            while pos >= 0:
+                if _ACTIVE.match(text, pos):
+                    active.add(pos)
+                pos = text.find(opener, pos + 1)
         text = _SEMICOLON.sub("", _COMMENT.sub("", text))
     clean = text.split("\n")
     # What is left of a line once its allowed bytes are deleted: nothing, when it is plain.
-    rest = text.encode("utf-8", errors="replace").translate(None, _ALLOWED)
-    out = np.array([not r for r in rest.split(b"\n")], dtype=bool)
+    rest = np.frombuffer(text.encode("utf-8", errors="replace").translate(None, _ALLOWED), dtype=np.uint8)
+    breaks = np.flatnonzero(rest == 10)
+    out = np.diff(np.concatenate(([-1], breaks, [rest.size]))) == 1
     if active:
         starts = np.cumsum([0] + [len(s) + 1 for s in lines[:-1]])
         for pos in active:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import bisect
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import flowmc.budget as budget
 import flowmc.motion.gcode.codes as C
@@ -79,19 +79,23 @@ class GcodeOptions:
     max_warnings: int = 100
 
 
-@dataclass
 class _Frame:
-    """One subroutine call: where to return, the caller's #1-#30 and locals, open loops."""
+    """One subroutine call: where to return, the caller's #1-#30 and locals, open loops (a plain
+    class with slots: one is made for every call)."""
 
-    source: Source
-    return_line: int
-    saved: list
-    locals: dict
-    label: object
-    return_source: Source
-    loops: dict = field(default_factory=dict)
-    autorestore: dict | None = None
-    saved_state: dict | None = None
+    __slots__ = ("source", "return_line", "saved", "locals", "label", "return_source", "loops", "autorestore",
+                 "saved_state")
+
+    def __init__(self, source: Source, return_line: int, saved: list, locals: dict, label, return_source: Source):
+        self.source = source
+        self.return_line = return_line
+        self.saved = saved
+        self.locals = locals
+        self.label = label
+        self.return_source = return_source
+        self.loops: dict = {}
+        self.autorestore: dict | None = None
+        self.saved_state: dict | None = None
 
 
 def _rotate(x: float, y: float, c: float, s: float) -> tuple[float, float]:
@@ -346,6 +350,8 @@ class Interpreter:
                 if block is _UNREAD:
                     block = self.cached_block(src, i)
             else:
+                if src is main and self._run_top(src, i, templates, run_ends):
+                    continue
                 block = templates.block(src, i)
                 if block is None:
                     block = src.parse(i)
@@ -374,6 +380,61 @@ class Interpreter:
                 raise self._error(src, i, str(exc)) from None
             if canon.sealed + len(canon.kind) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
+
+    def _run_top(self, src: Source, i: int, templates: Templates, run_ends) -> int:
+        """Top-level lines from ``i`` through their templates in one Python loop, not one trip round the
+        main loop a line: moves, settings and calls of compiled subroutines, each with the main loop's
+        line and segment budgets, line number and errors. Stops (returning how many lines it ran, with
+        ``pc`` past them) before a line it does not take, the start of a plain run, or the end of the
+        chunk; after a call that leaves a frame open, and at the program's end."""
+        first, keys, numbers, ends = templates.split(src, i)[1:]
+        stop = min(first + len(keys), src.end)
+        if self.options.block_delete or self.loops:
+            return 0
+        canon, max_blocks, max_segments = self.canon, self.max_blocks, self.max_segments
+        shapes, shape_of = templates.shapes, templates.shape
+        done = 0
+        for j in range(i, stop):
+            key = keys[j - first]
+            if key is None or (run_ends is not None and run_ends[j] - j >= _FAST_MIN_RUN):
+                break
+            shape = shapes.get(key)
+            if shape is None:
+                shape = shape_of(key)  # a new shape compiled, or None again: a shape not taken
+            if shape is None:
+                break
+            block, slots = shape
+            oword = block.oword
+            if block.delete or (oword is not None and oword[1] != "call"):
+                break
+            if slots is not None:
+                end = ends[j - first]
+                slots[:] = numbers[end - len(slots):end]
+            self.pc = j + 1
+            done += 1
+            self.blocks_run += 1
+            if self.blocks_run > max_blocks:
+                raise self._error(src, j, _too_many_lines(max_blocks))
+            self.line_no = j + 1
+            self.file_index = src.index
+            try:
+                if oword is not None:
+                    self._oword(block, src, j)
+                    self._run_body()
+                elif block.run is not None:
+                    rest = block.run(self, src, j, True)
+                    if rest is not None:
+                        words, gvals, mvals = rest
+                        self._run_values(block, words, gvals, mvals, src, j)
+                else:
+                    self._block(block, src, j)
+            except (InterpError, EvalError, ArcError) as exc:
+                raise self._error(src, j, str(exc)) from None
+            if canon.sealed + len(canon.kind) > max_segments:
+                raise self._error(src, j, _too_many_segments(max_segments))
+            if self.ended or self.frames or self.loops:
+                break
+        return done
 
     def cached_block(self, src: Source, i: int) -> Block | None:
         """Line i of src parsed and, when it has values to work out or is an O-word, compiled; kept,
@@ -421,9 +482,11 @@ class Interpreter:
         if block.oword is not None:
             label, keyword, args = block.oword
             label = label if type(label) in (str, int) else value_function(label, params, computed)
-            block.oword = (label, keyword, [value_function(a, params, computed) for a in args])
-            if keyword == "call":
+            if keyword == "call":  # its arguments are read by ``run`` only, in one function
+                block.oword = (label, keyword, args)
                 block.run = value_list(args, params, computed)
+            else:
+                block.oword = (label, keyword, [value_function(a, params, computed) for a in args])
         else:
             block.run = compile_block(block, params, computed)
 
@@ -487,16 +550,16 @@ class Interpreter:
     def _oword(self, block, src: Source, i: int) -> None:
         label_node, keyword, args = block.oword
         label = self._label(label_node)
+        if keyword == "call":
+            run = block.run  # a compiled call's arguments in one call
+            self._call(label, run() if run is not None else [evaluate(a, self.params) for a in args], src, i)
+            return
         loops = self._open_loops()
         if keyword == "sub":
             if label not in self.subs:
                 self.subs[label] = (src, i)
             end, _ = self._scan(src, i + 1, label, ("endsub",))
             self.pc = end + 1
-            return
-        if keyword == "call":
-            run = block.run  # a compiled call's arguments in one call
-            self._call(label, run() if run is not None else [evaluate(a, self.params) for a in args], src, i)
             return
         if keyword in ("endsub", "return"):
             if not self.frames or self.frames[-1].label != label:
@@ -642,10 +705,8 @@ class Interpreter:
         source, at = self._find_sub(label, src)
         num = self.params.num
         saved = num[1:31]
-        for k, value in enumerate(args):
-            num[k + 1] = value
-        frame = _Frame(source=source, return_line=i + 1, saved=saved, locals=self.params.locals, label=label,
-                       return_source=src)
+        num[1:len(args) + 1] = args
+        frame = _Frame(source, i + 1, saved, self.params.locals, label, src)
         self.params.locals = {}
         self.value = 0.0
         self.value_returned = 0.0

@@ -35,6 +35,12 @@ _NUMERIC = np.zeros(256, dtype=bool)
 _NUMERIC[list(b"0123456789.")] = True
 _AFTER_CODE = np.zeros(256, dtype=bool)  # a number after these is part of the shape
 _AFTER_CODE[list(b"#OGM")] = True
+_SIGN_AFTER = np.zeros(256, dtype=bool)  # a '-' after these is a sign
+_SIGN_AFTER[list(b"[XYZIJKR")] = True
+_OPERATOR = np.zeros(256, dtype=bool)
+_OPERATOR[list(b"+*/")] = True
+_OPERAND_END = np.zeros(256, dtype=bool)
+_OPERAND_END[list(b"0123456789]")] = True
 
 
 class Templates:
@@ -45,6 +51,22 @@ class Templates:
         self.computed = computed
         self.shapes: dict[str, tuple | None] = {}
         self.chunk: tuple | None = None  # the lines last split (``_split``)
+
+    def split(self, src, i: int) -> tuple:
+        """The split chunk holding line ``i`` of ``src`` (see ``_split``)."""
+        chunk = self.chunk
+        if chunk is None or chunk[0] is not src or not 0 <= i - chunk[1] < _CHUNK:
+            chunk = self.chunk = _split(src, i - i % _CHUNK)
+        return chunk
+
+    def shape(self, key: str):
+        """The (block, slots) of a shape key, compiled at its first line; None when it is not taken."""
+        shape = self.shapes.get(key, _NEW)
+        if shape is _NEW:
+            if len(self.shapes) >= _MAX_SHAPES:
+                return None
+            shape = self.shapes[key] = self._compile(key.split("$"))
+        return shape
 
     def block(self, src, i: int) -> Block | None:
         """The Block of line ``i`` of ``src`` through its template, its slots filled; None when the line
@@ -90,9 +112,11 @@ class Templates:
             label, keyword, args = block.oword
             if type(label) is not str and type(label) is not int:
                 label = value_function(label, params, computed, slots)
-            block.oword = (label, keyword, [value_function(a, params, computed, slots) for a in args])
-            if keyword == "call":
+            if keyword == "call":  # its arguments are read by ``run`` only, in one function
+                block.oword = (label, keyword, args)
                 block.run = value_list(args, params, computed, slots)
+            else:
+                block.oword = (label, keyword, [value_function(a, params, computed, slots) for a in args])
         else:
             block.run = compile_block(block, params, computed, slots)
         return block, slots
@@ -132,6 +156,11 @@ def _split(src, first: int) -> tuple:
     newlines = np.flatnonzero(chars == 10)
     bad_lines = np.searchsorted(newlines, starts[run_dots > 1])
     starts, ends = starts[literal], ends[literal]
+    # A minus that can only be a sign joins its number ("X-5" and "X5", "[a + -5]" and "[a + 5]" share a
+    # shape): right after a word letter or '[', or after '+', '*' or '/' that follow a number or ']'.
+    pad = np.concatenate((np.full(3, 10, dtype=np.uint8), chars))  # pad[s + 3 - j] is chars[s - j]
+    prev = pad[starts + 1]
+    starts = starts - ((pad[starts + 2] == 45) & (_SIGN_AFTER[prev] | (_OPERATOR[prev] & _OPERAND_END[pad[starts]])))
     inside = np.bincount(starts + 1, minlength=n + 1) - np.bincount(ends, minlength=n + 1)
     keep = np.cumsum(inside[:n]) == 0
     marked = chars.copy()
