@@ -167,7 +167,8 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
         m = len(k)
         turn = np.linalg.norm(tan[m:] - tan[:m], axis=1)
         change = np.abs(kap[m:] - kap[:m]) > _KAPPA_CHANGE * np.maximum(kap[m:], kap[:m])
-        split = ((turn > turn_step) | change) & (b - a > 1e-4)
+        step = np.where(arc[k], _TURN_STEP, turn_step)  # arcs keep the coarse step: their curvature is even
+        split = ((turn > step) | change) & (b - a > 1e-4)
         if not split.any():
             break
         new = mid[split]
