@@ -73,6 +73,7 @@ _SPARE = 0.6
 _RELAX = 1.6
 _MIN_SPANS = 10  # a run, however short, has room to turn: six of its control points are held by its ends
 _END_FIT = 2.0  # mm of programmed path a free run end takes its direction from
+_TOL_SHARE = 0.99  # of the tolerance left for smoothing, after the sampled chords sagitta
 _KNOT_TOL = 2.0  # least knot spacing, in tolerances
 _KNOT_SEGMENT = 0.4  # knot spacing in a run's typical programmed segment lengths
 _KNOT_MAX = 10.0  # most knot spacing, in tolerances
@@ -632,7 +633,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     if tol_fit <= 0:
         raise PlanningError(f"tolerance {tolerance} mm is below the sampled chords' sagitta at this period",
                             where="planner")
-    tol_fit *= 0.98
+    tol_fit *= _TOL_SHARE
 
     # junctions between consecutive elements
     nj = len(el.seg) - 1

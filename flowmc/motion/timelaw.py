@@ -62,8 +62,11 @@ _LINE_STEP = 0.5  # mm of u between grid nodes on lines (a peak between nodes is
 _LINE_STEP_JERK = 0.25  # finer for jerk-limited profiles: their plateaus start and end at nodes
 _ARC_STEP_RAD = math.radians(3.0)
 _POLY_SUB = 2  # grid intervals per spline interval
-_REFINE = 6  # rounds of halving grid intervals where the curve turns more than _TURN_STEP (rad) ...
+_REFINE = 6  # rounds of halving grid intervals where the curve turns more than the turn step (rad) ...
 _TURN_STEP = math.radians(2.0)
+_TURN_STEP_TRAPEZOID = math.radians(0.5)  # finer without a jerk limit: each interval's budget is its worst point's, and
+# in a tight fitted turn a coarse interval holds the speed at the turn's sharpest point for longer (3D_Chips 0.4 %,
+# flowsnake 1.2 % quicker; the jerk-limited law keeps the coarser grid its filter is tuned on)
 _KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
 _SWING_ROUNDS = 3
 _PLATEAU_ROUNDS = 8
@@ -130,7 +133,7 @@ class TimeLaw:
         return u
 
 
-def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarray:
+def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: float) -> np.ndarray:
     """Nodes: every interval boundary and stop, lines every _LINE_STEP, arcs every few degrees, splines
     halved; and at least three intervals between any two stops, so no interval starts and ends at rest
     and a jerk-limited move between them has a middle interval to hold its top speed on (_flatten_peaks
@@ -139,6 +142,7 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarr
     width = curve.u1 - curve.u0
     line = (curve.kind == POLY) & np.all(curve.coef[:, 2:] == 0.0, axis=(1, 2))
     arc = curve.kind == ARC
+    quad = (curve.kind == POLY) & np.all(curve.coef[:, 3:] == 0.0, axis=(1, 2))
     n = np.where(line, np.ceil(width / line_step),
                  np.where(arc, np.ceil(np.abs(curve.dphi) * width / _ARC_STEP_RAD), _POLY_SUB)).astype(int)
     n = np.maximum(n, 1)
@@ -165,7 +169,9 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float) -> np.ndarr
         m = len(k)
         turn = np.linalg.norm(tan[m:] - tan[:m], axis=1)
         change = np.abs(kap[m:] - kap[:m]) > _KAPPA_CHANGE * np.maximum(kap[m:], kap[:m])
-        split = ((turn > _TURN_STEP) | change) & (b - a > 1e-4)
+        # arcs (even curvature) and lone corners' parabolas keep the coarse step: only fitted cubics take the fine one
+        step = np.where(arc[k] | quad[k], _TURN_STEP, turn_step)
+        split = ((turn > step) | change) & (b - a > 1e-4)
         if not split.any():
             break
         new = mid[split]
@@ -330,7 +336,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     term at its worst: faster, and usually within the jerk limit anyway, which the caller then checks from
     the samples (``sampled_jerk``).
     """
-    u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP)
+    u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP, _TURN_STEP if jerk else _TURN_STEP_TRAPEZOID)
     du = np.diff(u)
     if np.any(du <= 0):
         raise PlanningError("the planned curve has an empty interval", where="planner")
