@@ -151,6 +151,7 @@ class Editor:
             command.on_trigger(lambda _e, a=action: self.edit(a))
         self.on_page_event("paste", lambda _client, data: self.actions.paste_text(data if isinstance(data, str) else None))
         self.on_page_event("palette-drop", self._palette_drop)
+        self.on_page_event("view", camera.resized)  # the page's size in CSS pixels: framing and legibility use it
         self.on_page_event("grid", lambda _client, data: self.inspector.grid_event(data.get("grid"), data)
                            if isinstance(data, dict) else None)
 

@@ -72,8 +72,6 @@ class Canvas:
         self.wire_px = WIRE_CANVAS_PX  # wires' screen thickness for the current zoom
         scene = server.scene
         scene.set_up_direction("+y")
-        scene.configure_default_lights(False)
-        scene.configure_environment_map(None)
         scene.add_light_ambient("/light", intensity=draw.AMBIENT)
         self.grid: Any = None
         self._grid_box: tuple[float, ...] | None = None

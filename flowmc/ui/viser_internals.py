@@ -75,7 +75,7 @@ NOTIFICATION_CSS = (".mantine-Notifications-root { top: 44px !important; bottom:
 
 _PAGE_JS = """
 (function flowmcPage(channel) {
-  if (window.flowmc) { window.flowmc.channel = channel; return; }
+  if (window.flowmc) { window.flowmc.channel = channel; window.flowmc.sendView(); return; }
   let counter = 0;
   const flowmc = window.flowmc = { channel: channel, handlers: [] };
   flowmc.send = (kind, data) => {
@@ -86,6 +86,23 @@ _PAGE_JS = """
                     updates: { value: JSON.stringify({ kind: kind, n: counter, t: Date.now(), data: data }) } });
     return true;
   };
+  // The view's size in CSS pixels, now and on every change (a new server-side client needs it again): the
+  // camera's image size is the drawing buffer's, which viser shrinks when frames are slow.
+  let watched = null;
+  flowmc.sendView = () => {
+    const canvas = window.__viserMutable && window.__viserMutable.canvas;
+    if (!canvas || !flowmc.send("view", { w: canvas.clientWidth, h: canvas.clientHeight })) {
+      setTimeout(flowmc.sendView, 100);
+      return;
+    }
+    if (canvas !== watched) {
+      watched = canvas;
+      new ResizeObserver(() => canvas === watched && flowmc.send("view", { w: canvas.clientWidth, h: canvas.clientHeight }))
+        .observe(canvas);
+    }
+  };
+  flowmc.sendView();
+  setInterval(() => { const m = window.__viserMutable; if (m && m.canvas && m.canvas !== watched) flowmc.sendView(); }, 1000);
   flowmc.download = (name, text) => {
     const url = URL.createObjectURL(new Blob([text], { type: "application/octet-stream" }));
     const a = document.createElement("a");
@@ -399,10 +416,10 @@ def _client_response(guard: Guard, request: Any) -> Response | None:
         else viser_client.asset(path)
     if asset is None:
         return None
-    zipped = asset.gzipped is not None and "gzip" in request.headers.get("Accept-Encoding", "")
-    body = asset.gzipped if zipped and asset.gzipped is not None else asset.body
+    zipped = asset.gzipped if "gzip" in request.headers.get("Accept-Encoding", "") else None
+    body = zipped if zipped is not None else asset.body
     headers = Headers({"Content-Type": asset.content_type, "Content-Length": str(len(body))})
-    if zipped:
+    if zipped is not None:
         headers["Content-Encoding"] = "gzip"
     return Response(200, "OK", headers, body)
 

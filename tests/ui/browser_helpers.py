@@ -14,7 +14,7 @@ from typing import Any, Iterator
 import numpy as np
 from playwright.sync_api import Browser, Page, sync_playwright
 
-from flowmc.ui import canvas_draw
+from flowmc.ui import camera, canvas_draw
 
 CHROMIUM = "/usr/bin/chromium"
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -66,10 +66,11 @@ class EditorPage:
         self.editor = editor
         self.page: Page = browser.new_page(viewport=VIEWPORT)
 
-    def open(self, timeout: float = 30.0) -> float:
-        """Load the page; returns seconds until every node is in the scene and the camera is locked."""
+    def open(self, timeout: float = 30.0, query: str = "") -> float:
+        """Load the page (``query``: more URL parameters, e.g. viser's ``fixedDpr=0.75``); returns seconds
+        until every node is in the scene and the camera is locked."""
         start = time.perf_counter()
-        self.page.goto(self.editor.url)
+        self.page.goto(self.editor.url + (f"&{query}" if query else ""))
         self.wait_nodes(len(self.editor.canvas.boxes), timeout)
         self.page.wait_for_function("window.__flowmcCameraLocked === true", timeout=timeout * 1000)
         return time.perf_counter() - start
@@ -78,6 +79,22 @@ class EditorPage:
         """Wait until the page's layout and the camera stop moving (panels dock and the view is framed
         again while the page settles): clicks aimed from the scene's geometry then land where meant."""
         self.page.wait_for_function(_STILL, timeout=timeout * 1000)
+
+    def framed(self, timeout: float = 30.0) -> None:
+        """Wait until the server has the view's present size and the camera is where its framing put it,
+        then until the page settles: a resize is answered by the server, which under load can lag."""
+        seen: list[Any] = []
+
+        def answered() -> bool:
+            size = self.page.evaluate("[window.__viserMutable.canvas.clientWidth, window.__viserMutable.canvas.clientHeight]")
+            cam = next(iter(self.editor.server.get_clients().values())).camera
+            seen[:] = [size, list(camera.view_px(cam)), np.round(cam.position, 3)]
+            return seen[0] == seen[1] and camera.framed_here(cam.client, cam.position)
+        try:
+            wait_until(answered, timeout, "the server framing the view's present size")
+        except AssertionError as err:
+            raise AssertionError(f"{err}: page size, server size, server camera = {seen}") from None
+        self.settled(timeout)
 
     def wait_nodes(self, count: int, timeout: float = 30.0) -> None:
         """Wait until the scene holds ``count`` node bodies (nodes and interface terminals)."""
