@@ -13,7 +13,9 @@ across many segments. Here the smoothing works on *runs*, not corners:
 3. A lone corner between two lines, when tangent continuity is enough (trapezoid profiles), is
    rounded by the per-axis time-optimal blend, a parabola (``_corner_parabolas``): with every axis
    held to its own acceleration limit it passes a right angle about 1.5 times as fast as the
-   tangent arc within the same tolerance (LinuxCNC 2.7+ blends by tangent arcs, Ellenberg). Every other run is replaced
+   tangent arc within the same tolerance (LinuxCNC 2.7+ blends by tangent arcs, Ellenberg). Its corner is
+   moved out first (``_outside_corners``: the racing line, outside the band before and after the corner,
+   inside at it), so the parabola may be longer and is passed faster. Every other run is replaced
    by a cubic B-spline fitted to the programmed path over the run, with the position, tangent and
    curvature of the path at both ends of the run fixed, so the result is curvature-continuous (G2)
    where it joins the rest of the path and inside.
@@ -602,10 +604,11 @@ def _outside_corners(el: _Elements, raw: PlannedCurve, j: np.ndarray, stop: np.n
                      room_out: np.ndarray, tol: float, still: np.ndarray) -> _Outside:
     """Move lone line-line corners out, so their blends use the tolerance band on both sides of the path.
 
-    The time-optimal way through a corner within a band keeps to the outside of the band before and after
-    it and cuts to the inside at the corner (the racing line of minimum-time vehicle manoeuvring, e.g.
-    Kapania, Subosits and Gerdes, J. Dynamic Systems, Measurement and Control 138 (2016) 091005; the
-    time-optimal corner passes of benchmarks/corner_bound.py's programs reach both edges of the band too).
+    A fast way through a corner within a band keeps to the outside of the band before and after it and cuts
+    to the inside at the corner (the racing line of minimum-time vehicle manoeuvring, e.g. Kapania, Subosits
+    and Gerdes, J. Dynamic Systems, Measurement and Control 138 (2016) 091005). CNC corner blends (e.g.
+    Sencer and Shamoto's curvature-continuous corner smoothing, with the cornering error set analytically)
+    stay on the inner side of both lines; here the tolerance is used on both sides.
     Each corner C is moved out to C' so the lines into it stay within the tolerance of the programmed
     ones, and the parabola of ``_corner_parabolas`` is laid in the moved corner with its middle still
     within the tolerance of C (the path both ways): it may pass up to about tol + |C' - C| from C', so
@@ -613,11 +616,14 @@ def _outside_corners(el: _Elements, raw: PlannedCurve, j: np.ndarray, stop: np.n
     redrawn between its (moved) ends, within the tolerance of its programmed line since both ends are.
     Where both lines can be redrawn, C moves along its bisector by tol / cos(alpha/2) (the lines' ends
     then lie on the band's outer edge; a 60 degree zigzag: the parabola 2.15 times as long, passed 1.47
-    times as fast); where only one can, along the other line's extension by tol / sin(alpha), which leaves
-    that line as programmed; where neither can (or ``still``), C stays. Lines next to anything else (a fitted
-    run, an arc) keep their direction, so nothing else changes. Moves are at most 2 tol.
+    times as fast); where only one can, along the other line's extension by tol tan(alpha/2) (which lets the
+    parabola's middle pass tol / cos(alpha/2) from C'; at most tol / sin(alpha), which keeps the redrawn
+    line within the band), leaving that line as programmed; where neither can (or ``still``: a blend too
+    short to reach back past the slide), C stays. Lines next to anything else (a fitted run, an arc) keep
+    their direction, so nothing else changes. Moves are at most 2 tol. The deviation both ways is checked
+    on sampled plans over turns of 20-150 degrees, with both kinds of move (tests/motion/test_planner.py).
     """
-    n_el, nj = len(el.seg), len(el.seg) - 1
+    nj = len(el.seg) - 1
     cand = np.zeros(nj, dtype=bool)
     cand[j] = True
     end_free = np.r_[True, stop | cand, True]  # element boundaries (starts, then the path's end)
@@ -765,16 +771,16 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         for ua, ub, c, w in zip(runs.ua[blends], runs.ub[blends], coef, 2.0 * d):
             b.polys([ua, ub], c[None], widths=[w])
         if len(out.line):  # the redrawn lines, between the blends' ends
-            i = out.line
+            redrawn = out.line
             trim = np.zeros(len(el.seg) + 1)
             trim[j + 1] = d
-            lead, tail = trim[i], trim[i + 1]
+            lead, tail = trim[redrawn], trim[redrawn + 1]
             span = out.end - out.start
             full = np.linalg.norm(span, axis=1)
-            coef = np.zeros((len(i), 4, 3))
+            coef = np.zeros((len(redrawn), 4, 3))
             coef[:, 0] = out.start + (lead / full)[:, None] * span
             coef[:, 1] = span / full[:, None]
-            line_a, line_b = el.u0[i] + lead, el.u1[i] - tail
+            line_a, line_b = el.u0[redrawn] + lead, el.u1[redrawn] - tail
             b.polys(np.c_[line_a, line_b], coef, widths=full - lead - tail)
     fits = np.flatnonzero(~runs.arc)
     failed = 0
