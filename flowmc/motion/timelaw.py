@@ -142,7 +142,6 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
     width = curve.u1 - curve.u0
     line = (curve.kind == POLY) & np.all(curve.coef[:, 2:] == 0.0, axis=(1, 2))
     arc = curve.kind == ARC
-    quad = (curve.kind == POLY) & np.all(curve.coef[:, 3:] == 0.0, axis=(1, 2))
     n = np.where(line, np.ceil(width / line_step),
                  np.where(arc, np.ceil(np.abs(curve.dphi) * width / _ARC_STEP_RAD), _POLY_SUB)).astype(int)
     n = np.maximum(n, 1)
@@ -169,8 +168,8 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
         m = len(k)
         turn = np.linalg.norm(tan[m:] - tan[:m], axis=1)
         change = np.abs(kap[m:] - kap[:m]) > _KAPPA_CHANGE * np.maximum(kap[m:], kap[:m])
-        # arcs (even curvature) and lone corners' parabolas keep the coarse step: only fitted cubics take the fine one
-        step = np.where(arc[k] | quad[k], _TURN_STEP, turn_step)
+        # arcs (even curvature) keep the coarse step: fitted cubics and lone corners' parabolas take the fine one
+        step = np.where(arc[k], _TURN_STEP, turn_step)
         split = ((turn > step) | change) & (b - a > 1e-4)
         if not split.any():
             break

@@ -76,8 +76,9 @@ def test_flowmc_compare_cli_compares_like_with_like(tmp_path, capsys):
     assert _cells(out, "period") == [0.001, 0.001]
     flowmc_s, linuxcnc_s = _cells(out, "feed cycle time")
     # 30 mm sides with near-stops at the corners never reach 100 mm/s: a triangle of about
-    # 2 sqrt(30 / 200) = 0.77 s per side at 200 mm/s^2, a little more with the blends
-    assert 3.0 < flowmc_s < 3.7 and 3.0 < linuxcnc_s < 3.7 and flowmc_s < linuxcnc_s
+    # 2 sqrt(30 / 200) = 0.77 s per side at 200 mm/s^2, a little more with the blends; flowmc's corners, moved
+    # out within the tolerance, are passed at about 8 mm/s: 2 (sqrt(8^2 + 200 * 30) - 8) / 200 = 0.70 s a side
+    assert 2.8 < flowmc_s < 3.7 and 3.0 < linuxcnc_s < 3.7 and flowmc_s < linuxcnc_s
     for row in ("deviation from the programmed path", "deviation of the programmed path from the tool path"):
         assert all(0.0 < v <= TOL * 1.01 for v in _cells(out, row))
     assert all(v > 0 for v in _cells(out, "peak jerk X"))  # reported for both, held to jmax by neither here
