@@ -46,7 +46,6 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy import sparse
 from scipy.interpolate import BSpline, CubicSpline
 from scipy.linalg import solveh_banded
 from scipy.ndimage import uniform_filter1d
@@ -368,8 +367,8 @@ class _RunFitter:
         x = np.clip(t, ua[run_of], (ua + width)[run_of])
         span = self.basis.span(run_of, x)
         first = self.basis.first_cp(run_of, span)
-        self.design = sparse.csr_matrix((self.basis.basis(span, x).ravel(), (first[:, None] + np.arange(4)).ravel(),
-                                         np.arange(0, 4 * len(t) + 1, 4)), shape=(len(t), total))
+        # the design matrix, row i: basis values b[:, i] on control points first[i] .. first[i] + 3
+        self.design_b, self.design_cp = self.basis.bases(span, x, (3,))[3], first + np.arange(4)[:, None]
         # fixed control points: position, tangent and curvature of the path at both ends of each run
         fixed = np.zeros(total, dtype=bool)
         c_fixed = np.zeros((total, 3))
@@ -409,9 +408,34 @@ class _RunFitter:
         # parameters rise within a run), so each span's data are one stretch
         first = np.r_[0, np.flatnonzero(np.diff(self.span_of)) + 1]
         self.span_runs = (first, self.span_of[first])
-        data_part = (self.design.T @ self.design).tocsr()
-        self.data_diag = [data_part.diagonal(k) for k in range(4)]
-        self.rhs_data = self.design.T @ self.q
+        self.data_diag, self.rhs_data = self._normal_data()
+        # what every solve's assembly reuses: where each penalty row's products go, and which couplings stay
+        free = ~fixed
+        self.free_pair = [free[:total - k] & free[k:] for k in range(4)]
+        self.fixed_x = self.c_fixed * fixed[:, None]
+        self.q_rows = np.ascontiguousarray(self.q.T)
+
+    def _normal_data(self) -> tuple[list[np.ndarray], np.ndarray]:
+        """The data part of the normal equations, B^T B (its four upper diagonals) and B^T q, B the design
+        matrix: each entry summed over the data rows in order, from zero, as a sparse product sums it."""
+        b, cp, total = self.design_b, self.design_cp, self.total
+        diag = []
+        for k in range(4):  # row i adds b[a, i] b[a + k, i] to diagonal k at cp[a, i], a = 0 .. 3 - k
+            w = (b[:4 - k] * b[k:]).T.ravel()
+            diag.append(np.bincount(cp[:4 - k].T.ravel(), weights=w, minlength=total)[:total - k])
+        at = cp.T.ravel()
+        rhs = np.stack([np.bincount(at, weights=(b * self.q[:, j]).T.ravel(), minlength=total)
+                        for j in range(3)], axis=1)
+        return diag, rhs
+
+    def _residual(self, coef: np.ndarray) -> np.ndarray:
+        """|B coef - q| at each data point, B the design matrix (summed over a row's four control points in order)."""
+        by_axis, b, cp = coef.T, self.design_b, self.design_cp
+        val = np.take(by_axis, cp[0], axis=1) * b[0]
+        for a in range(1, 4):
+            val += np.take(by_axis, cp[a], axis=1) * b[a]
+        d = val - self.q_rows
+        return np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
 
     def _solve(self) -> np.ndarray:
         """The banded normal equations (upper form for solveh_banded), assembled directly: the data part's
@@ -425,16 +449,15 @@ class _RunFitter:
             for q_ in range(p_, len(stencil)):
                 diag[q_ - p_][c + p_] += stencil[p_] * stencil[q_] * w
         # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
-        x = self.c_fixed * fixed[:, None]
+        x = self.fixed_x
         rhs = self.rhs_data - diag[0][:, None] * x
         for k in range(1, 4):
             d = diag[k][:, None]
             rhs[:-k] -= d * x[k:]
             rhs[k:] -= d * x[:-k]
-        free = ~fixed
         ab = np.zeros((4, total))
         for k in range(4):
-            ab[3 - k, k:] = diag[k] * (free[:total - k] & free[k:])
+            ab[3 - k, k:] = diag[k] * self.free_pair[k]
         ab[3, fixed] = 1.0
         rhs[fixed] = self.c_fixed[fixed]
         return solveh_banded(ab, rhs, check_finite=False)
@@ -449,7 +472,7 @@ class _RunFitter:
         cp_run = np.repeat(np.arange(len(self.ua)), self.ncp)
         for it in range(_FIT_ITER):
             coef = self._solve()
-            resid = np.linalg.norm(self.design @ coef - self.q, axis=1)
+            resid = self._residual(coef)
             dev = np.maximum.reduceat(resid, self.bounds[:-1])
             ok = dev <= self.tol
             take = (ok | ~ok_any)[cp_run]
