@@ -430,7 +430,7 @@ class _RunFitter:
 
     def _residual(self, coef: np.ndarray) -> np.ndarray:
         """|B coef - q| at each data point, B the design matrix (summed over a row's four control points in order)."""
-        by_axis, b, cp = coef.T, self.design_b, self.design_cp
+        by_axis, b, cp = np.ascontiguousarray(coef.T), self.design_b, self.design_cp
         val = np.take(by_axis, cp[0], axis=1) * b[0]
         for a in range(1, 4):
             val += np.take(by_axis, cp[a], axis=1) * b[a]
@@ -442,12 +442,14 @@ class _RunFitter:
         four diagonals plus each penalty row's w * d^T d, d its difference stencil on its control points."""
         total, fixed = self.total, self.fixed
         w = self.mu * self.scale
-        c = self.diff_start
+        w_at = np.zeros(total)  # each penalty row's weight at its first control point, zero between runs
+        w_at[self.diff_start] = w
         diag = [d.copy() for d in self.data_diag]
         stencil = self.stencil
-        for p_ in range(len(stencil)):  # each penalty row's control points are distinct: add in place
+        for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
             for q_ in range(p_, len(stencil)):
-                diag[q_ - p_][c + p_] += stencil[p_] * stencil[q_] * w
+                k = q_ - p_
+                diag[k][p_:] += stencil[p_] * stencil[q_] * w_at[:total - k - p_]
         # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
         x = self.fixed_x
         rhs = self.rhs_data - diag[0][:, None] * x
@@ -475,18 +477,18 @@ class _RunFitter:
             resid = self._residual(coef)
             dev = np.maximum.reduceat(resid, self.bounds[:-1])
             ok = dev <= self.tol
-            take = (ok | ~ok_any)[cp_run]
-            best[take] = coef[take]
+            np.copyto(best, coef, where=(ok | ~ok_any)[cp_run, None])
             dev_best = np.where(ok | ~ok_any, dev, dev_best)
             ok_any |= ok
             if ok.all() and it >= _FIT_SETTLE:
                 break
-            over = np.zeros(self.total)
             ratio = resid / self.tol
             first, span = self.span_runs  # the largest per span, then onto its four control points
-            worst = np.maximum.reduceat(ratio, first)
-            for j in range(4):
-                over[span + j] = np.maximum(over[span + j], worst)
+            worst = np.zeros(self.total)
+            worst[span] = np.maximum.reduceat(ratio, first)
+            over = worst.copy()
+            for j in range(1, 4):
+                np.maximum(over[j:], worst[:-j], out=over[j:])
             row_over = window_max(over, self.reach_lo, self.reach_hi)
             prev = self.scale
             assert prev is not None  # set by _setup
