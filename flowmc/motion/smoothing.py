@@ -522,7 +522,8 @@ class _RunFitter:
         mid, half = np.where(inside, 0.5 * (t[1:] + t[:-1]), t[1:]), np.where(inside, 0.5 * step, 0.0)
         nodes = mid[:, None] + half[:, None] * gl_x[None, :]
         d1 = self.basis.evaluate(coef, np.repeat(run[1:], len(gl_x)), nodes.ravel(), 1, only=(1,))[0]
-        part = half * (np.linalg.norm(d1, axis=1).reshape(nodes.shape) @ gl_w)
+        d = d1.T  # |d1| summed as np.linalg.norm sums it, along the points
+        part = half * (np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).reshape(nodes.shape) @ gl_w)
         t_new = np.empty_like(self.t)
         lengths = np.empty(len(self.ua))
         for r in range(len(self.ua)):  # per run, so each sum runs as it always has
