@@ -48,7 +48,6 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.interpolate import BSpline, CubicSpline
 from scipy.linalg import solveh_banded
-from scipy.ndimage import uniform_filter1d
 
 from flowmc.errors import PlanningError
 from flowmc.motion.bsplines import RunKnots
@@ -57,7 +56,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.path import Path
 from flowmc.motion.path_columns import CURVE, DWELL, LINE, PathColumns
 from flowmc.motion.pieces import REVERSAL, checked_feeds, corner_angle
-from flowmc.motion.ranges import window_max
+from flowmc.motion.ranges import moving_mean, window_max
 
 __all__ = ["Smoothed", "smooth_path", "raw_curve"]
 
@@ -392,7 +391,7 @@ class _RunFitter:
         self.span_of = np.clip(np.floor((t - ua[run_of]) / hr[run_of]).astype(int), 0, spans[run_of] - 1) + offset[run_of]
         per_cp: np.ndarray = np.bincount(self.span_of, weights=np.minimum(self.seg_len, _ELL * hr[run_of]), minlength=total)
         per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
-        per_cp = uniform_filter1d(per_cp, size=41)
+        per_cp = moving_mean(per_cp, 41)
         hd = hr[self.diff_run]
         segments = _ELL_SEGMENTS_JERK if self.order == 3 else _ELL_SEGMENTS
         ell = np.clip(np.maximum(segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
@@ -496,7 +495,7 @@ class _RunFitter:
             if it < _FIT_SETTLE:  # room to spare: smooth more again (up to where it started)
                 scale = np.where(row_over < _SPARE, np.minimum(scale * _RELAX, 1.0), scale)
             # changed gently along the run: a step in smoothing makes a kink in the curve's parameter
-            scale = np.exp(np.minimum(uniform_filter1d(np.log(scale), size=_BLUR), np.log(scale)))
+            scale = np.exp(np.minimum(moving_mean(np.log(scale), _BLUR), np.log(scale)))
             # never below the smoothing of one knot span: less only lets the parameter wander along the path
             self.scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, prev, np.inf)), self.floor)
         return best, ok_any, dev_best
