@@ -31,16 +31,17 @@ class RunKnots:
         flat = np.where(j == spans[run], end[run], flat)
         self.flat = flat
         self.knots = np.split(flat, self.start[1:])
+        h = width / spans  # per run, what span() needs for its guesses
+        self._guess = (self.start + 3, spans - 1, np.where(h > 0, h, 1.0))
 
     def span(self, run: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Index in ``flat`` of the knot t_i <= x < t_{i+1} of each point's run (the run's first or last span
         for x outside it, as scipy's BSpline extrapolates). Runs may overlap: each point searches its own
         run's knots (a guess from the equal spacing, then moved while a knot says otherwise)."""
-        first = self.start[run] + 3
-        last = first + self.spans[run] - 1
-        h = self.width[run] / self.spans[run]
-        guess = np.floor((x - self.a[run]) / np.where(h > 0, h, 1.0))
-        i = first + np.clip(np.nan_to_num(guess), 0, self.spans[run] - 1).astype(int)
+        first, top, h = (v[run] for v in self._guess)
+        last = first + top
+        guess = np.floor((x - self.a[run]) / h)
+        i = first + np.clip(np.nan_to_num(guess), 0, top).astype(int)
         t = self.flat
         while True:
             down = (i > first) & (x < t[i])

@@ -48,10 +48,8 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy import sparse
 from scipy.interpolate import BSpline, CubicSpline
 from scipy.linalg import solveh_banded
-from scipy.ndimage import uniform_filter1d
 
 from flowmc.errors import PlanningError
 from flowmc.motion.bsplines import RunKnots
@@ -60,7 +58,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.path import Path
 from flowmc.motion.path_columns import CURVE, DWELL, LINE, PathColumns
 from flowmc.motion.pieces import REVERSAL, checked_feeds, corner_angle
-from flowmc.motion.ranges import window_max
+from flowmc.motion.ranges import moving_mean, window_max
 
 __all__ = ["Smoothed", "smooth_path", "raw_curve"]
 
@@ -370,8 +368,8 @@ class _RunFitter:
         x = np.clip(t, ua[run_of], (ua + width)[run_of])
         span = self.basis.span(run_of, x)
         first = self.basis.first_cp(run_of, span)
-        self.design = sparse.csr_matrix((self.basis.basis(span, x).ravel(), (first[:, None] + np.arange(4)).ravel(),
-                                         np.arange(0, 4 * len(t) + 1, 4)), shape=(len(t), total))
+        # the design matrix, row i: basis values b[:, i] on control points first[i] .. first[i] + 3
+        self.design_b, self.design_cp = self.basis.bases(span, x, (3,))[3], first + np.arange(4)[:, None]
         # fixed control points: position, tangent and curvature of the path at both ends of each run
         fixed = np.zeros(total, dtype=bool)
         c_fixed = np.zeros((total, 3))
@@ -395,7 +393,7 @@ class _RunFitter:
         self.span_of = np.clip(np.floor((t - ua[run_of]) / hr[run_of]).astype(int), 0, spans[run_of] - 1) + offset[run_of]
         per_cp: np.ndarray = np.bincount(self.span_of, weights=np.minimum(self.seg_len, _ELL * hr[run_of]), minlength=total)
         per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
-        per_cp = uniform_filter1d(per_cp, size=41)
+        per_cp = moving_mean(per_cp, 41)
         hd = hr[self.diff_run]
         segments = _ELL_SEGMENTS_JERK if self.order == 3 else _ELL_SEGMENTS
         ell = np.clip(np.maximum(segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
@@ -411,32 +409,58 @@ class _RunFitter:
         # parameters rise within a run), so each span's data are one stretch
         first = np.r_[0, np.flatnonzero(np.diff(self.span_of)) + 1]
         self.span_runs = (first, self.span_of[first])
-        data_part = (self.design.T @ self.design).tocsr()
-        self.data_diag = [data_part.diagonal(k) for k in range(4)]
-        self.rhs_data = self.design.T @ self.q
+        self.data_diag, self.rhs_data = self._normal_data()
+        # what every solve's assembly reuses: where each penalty row's products go, and which couplings stay
+        free = ~fixed
+        self.free_pair = [free[:total - k] & free[k:] for k in range(4)]
+        self.fixed_x = self.c_fixed * fixed[:, None]
+        self.q_rows = np.ascontiguousarray(self.q.T)
+
+    def _normal_data(self) -> tuple[list[np.ndarray], np.ndarray]:
+        """The data part of the normal equations, B^T B (its four upper diagonals) and B^T q, B the design
+        matrix: each entry summed over the data rows in order, from zero, as a sparse product sums it."""
+        b, cp, total = self.design_b, self.design_cp, self.total
+        diag = []
+        for k in range(4):  # row i adds b[a, i] b[a + k, i] to diagonal k at cp[a, i], a = 0 .. 3 - k
+            w = (b[:4 - k] * b[k:]).T.ravel()
+            diag.append(np.bincount(cp[:4 - k].T.ravel(), weights=w, minlength=total)[:total - k])
+        at = cp.T.ravel()
+        rhs = np.stack([np.bincount(at, weights=(b * self.q[:, j]).T.ravel(), minlength=total)
+                        for j in range(3)], axis=1)
+        return diag, rhs
+
+    def _residual(self, coef: np.ndarray) -> np.ndarray:
+        """|B coef - q| at each data point, B the design matrix (summed over a row's four control points in order)."""
+        by_axis, b, cp = np.ascontiguousarray(coef.T), self.design_b, self.design_cp
+        val = np.take(by_axis, cp[0], axis=1) * b[0]
+        for a in range(1, 4):
+            val += np.take(by_axis, cp[a], axis=1) * b[a]
+        d = val - self.q_rows
+        return np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
 
     def _solve(self) -> np.ndarray:
         """The banded normal equations (upper form for solveh_banded), assembled directly: the data part's
         four diagonals plus each penalty row's w * d^T d, d its difference stencil on its control points."""
         total, fixed = self.total, self.fixed
         w = self.mu * self.scale
-        c = self.diff_start
+        w_at = np.zeros(total)  # each penalty row's weight at its first control point, zero between runs
+        w_at[self.diff_start] = w
         diag = [d.copy() for d in self.data_diag]
         stencil = self.stencil
-        for p_ in range(len(stencil)):  # each penalty row's control points are distinct: add in place
+        for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
             for q_ in range(p_, len(stencil)):
-                diag[q_ - p_][c + p_] += stencil[p_] * stencil[q_] * w
+                k = q_ - p_
+                diag[k][p_:] += stencil[p_] * stencil[q_] * w_at[:total - k - p_]
         # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
-        x = self.c_fixed * fixed[:, None]
+        x = self.fixed_x
         rhs = self.rhs_data - diag[0][:, None] * x
         for k in range(1, 4):
             d = diag[k][:, None]
             rhs[:-k] -= d * x[k:]
             rhs[k:] -= d * x[:-k]
-        free = ~fixed
         ab = np.zeros((4, total))
         for k in range(4):
-            ab[3 - k, k:] = diag[k] * (free[:total - k] & free[k:])
+            ab[3 - k, k:] = diag[k] * self.free_pair[k]
         ab[3, fixed] = 1.0
         rhs[fixed] = self.c_fixed[fixed]
         return solveh_banded(ab, rhs, check_finite=False)
@@ -451,21 +475,21 @@ class _RunFitter:
         cp_run = np.repeat(np.arange(len(self.ua)), self.ncp)
         for it in range(_FIT_ITER):
             coef = self._solve()
-            resid = np.linalg.norm(self.design @ coef - self.q, axis=1)
+            resid = self._residual(coef)
             dev = np.maximum.reduceat(resid, self.bounds[:-1])
             ok = dev <= self.tol
-            take = (ok | ~ok_any)[cp_run]
-            best[take] = coef[take]
+            np.copyto(best, coef, where=(ok | ~ok_any)[cp_run, None])
             dev_best = np.where(ok | ~ok_any, dev, dev_best)
             ok_any |= ok
             if ok.all() and it >= _FIT_SETTLE:
                 break
-            over = np.zeros(self.total)
             ratio = resid / self.tol
             first, span = self.span_runs  # the largest per span, then onto its four control points
-            worst = np.maximum.reduceat(ratio, first)
-            for j in range(4):
-                over[span + j] = np.maximum(over[span + j], worst)
+            worst = np.zeros(self.total)
+            worst[span] = np.maximum.reduceat(ratio, first)
+            over = worst.copy()
+            for j in range(1, 4):
+                np.maximum(over[j:], worst[:-j], out=over[j:])
             row_over = window_max(over, self.reach_lo, self.reach_hi)
             prev = self.scale
             assert prev is not None  # set by _setup
@@ -473,7 +497,7 @@ class _RunFitter:
             if it < _FIT_SETTLE:  # room to spare: smooth more again (up to where it started)
                 scale = np.where(row_over < _SPARE, np.minimum(scale * _RELAX, 1.0), scale)
             # changed gently along the run: a step in smoothing makes a kink in the curve's parameter
-            scale = np.exp(np.minimum(uniform_filter1d(np.log(scale), size=_BLUR), np.log(scale)))
+            scale = np.exp(np.minimum(moving_mean(np.log(scale), _BLUR), np.log(scale)))
             # never below the smoothing of one knot span: less only lets the parameter wander along the path
             self.scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, prev, np.inf)), self.floor)
         return best, ok_any, dev_best
@@ -499,7 +523,8 @@ class _RunFitter:
         mid, half = np.where(inside, 0.5 * (t[1:] + t[:-1]), t[1:]), np.where(inside, 0.5 * step, 0.0)
         nodes = mid[:, None] + half[:, None] * gl_x[None, :]
         d1 = self.basis.evaluate(coef, np.repeat(run[1:], len(gl_x)), nodes.ravel(), 1, only=(1,))[0]
-        part = half * (np.linalg.norm(d1, axis=1).reshape(nodes.shape) @ gl_w)
+        d = d1.T  # |d1| summed as np.linalg.norm sums it, along the points
+        part = half * (np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).reshape(nodes.shape) @ gl_w)
         t_new = np.empty_like(self.t)
         lengths = np.empty(len(self.ua))
         for r in range(len(self.ua)):  # per run, so each sum runs as it always has

@@ -1,8 +1,11 @@
-"""flowmc.motion.ranges: window minima and maxima equal a brute-force scan, reused windows included."""
+"""flowmc.motion.ranges: window minima and maxima equal a brute-force scan, reused windows included; the moving
+mean equals scipy.ndimage.uniform_filter1d to the last bit."""
 
 import numpy as np
+import pytest
+from scipy.ndimage import uniform_filter1d
 
-from flowmc.motion.ranges import Windows, window_max, window_min
+from flowmc.motion.ranges import Windows, moving_mean, window_max, window_min
 
 
 def test_windows_match_a_scan_of_every_window():
@@ -20,3 +23,16 @@ def test_windows_match_a_scan_of_every_window():
         np.testing.assert_array_equal(window_min(values, lo, hi), brute_min)
         np.testing.assert_array_equal(window_max(values, lo, hi), brute_max)
     assert len(Windows(np.zeros(0), np.zeros(0), n).min(rng.normal(size=n))) == 0
+
+
+def test_moving_mean_is_uniform_filter1d_bit_for_bit():
+    # the smoothing fit's plans stay bit-identical only if every value is summed exactly as scipy sums it
+    rng = np.random.default_rng(7)
+    for n in [1, 2, 5, 19, 20, 21, 40, 41, 42, 100, 1000, 5000]:
+        values = np.log(rng.random(n)) * 10.0 ** rng.integers(-3, 4)  # mixed magnitudes show any reordering
+        for size in (1, 3, 41):
+            np.testing.assert_array_equal(moving_mean(values, size), uniform_filter1d(values, size=size))
+            assert moving_mean(values, size).tobytes() == uniform_filter1d(values, size=size).tobytes()
+    assert len(moving_mean(np.zeros(0), 41)) == 0
+    with pytest.raises(ValueError, match="odd window"):
+        moving_mean(np.ones(10), 40)
