@@ -97,8 +97,9 @@ class Editor:
         self.state.subscribe(self._on_state)
         self.server.on_client_connect(self._on_connect)
         self.structure_ui = StructureUI(self)  # after the editor's own listeners: the canvas is drawn first
+        self.canvas.geometry()
+        self.canvas.fit()  # where the first page starts: its zoom decides whether the first drawing has details
         self.canvas.sync()
-        self.canvas.fit()  # where the first page starts
         self._refresh_side()
 
     @property

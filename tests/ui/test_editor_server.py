@@ -15,11 +15,12 @@ from pathlib import Path
 import pytest
 
 import flowmc
-from editor_graphs import example_file
+from editor_graphs import chain_file, example_file
 from flowmc.devices.session import DeviceSession
 from flowmc.ui import layout
 from flowmc.ui.app import Editor
 from flowmc.ui.text import unescape_md
+from wire_client import messages_on_connect
 
 
 @pytest.fixture
@@ -363,3 +364,21 @@ def test_box_select_adds_the_nodes_inside(editor):
     a, b = boxes["table"], boxes["shift"]
     inside = editor.canvas.select_box(a.x - 0.1, b.y - b.h - 0.1, b.x + b.w + 0.1, a.y + 0.1)
     assert sorted(inside) == ["shift", "table"] and sorted(editor.state.selected_nodes) == ["shift", "table"]
+
+
+def test_a_page_opening_120_nodes_gets_each_title_once_and_no_hidden_labels(tmp_path, open_editor):
+    """At Fit a 120-node graph is too small to read port names: the page is sent the titles, one label each
+    under one frame, and no detail labels made and dropped before it connected."""
+    ed = open_editor(chain_file(tmp_path, 120), extensions=False)
+    messages = messages_on_connect(ed)
+    labels = [m["name"] for m in messages if m["type"] == "LabelMessage"]
+    assert sorted(labels) == sorted(f"/canvas/titles/{b.node_id}.title" for b in ed.canvas.boxes)
+    assert not [m for m in messages if m["type"] == "RemoveSceneNodeMessage"]
+    frames = {m["name"] for m in messages if m["type"] == "FrameMessage"}
+    assert not [f for f in frames if f.startswith(("/canvas/titles/", "/canvas/detail/"))]
+    ed.canvas.texts.zoom(1.0)  # close enough to read: the details come, still one label per text
+    ed.server.flush()
+    again = messages_on_connect(ed)
+    names = {m["name"] for m in again if m["type"] == "LabelMessage"}
+    assert "/canvas/detail/t12.in.dx" in names and "/canvas/titles/t12.title" in names
+    assert not [m for m in again if m["type"] == "FrameMessage" and m["name"].startswith("/canvas/detail/")]
