@@ -343,7 +343,6 @@ class _RunFitter:
         k_raw = raw.interval_at(self.pu)
         self.seg_len = raw.u1[k_raw] - raw.u0[k_raw]
         self.scale: np.ndarray | None = None
-        self.span_runs: tuple[np.ndarray, np.ndarray] | None = None
 
     def _data_tangent(self, at: np.ndarray, length: np.ndarray, free: np.ndarray, way: float) -> np.ndarray:
         """Unit tangent of the programmed path at run ends ``at`` (going into the run): the slope at the end of
@@ -406,10 +405,10 @@ class _RunFitter:
         self.reach_hi = np.minimum(self.diff_start + 1 + reach, last_cp)
         if self.scale is None:
             self.scale = np.ones(len(self.diff_start))
-        # where each span's data start, when the data run along the spans (they do: sorted by run and parameter)
-        step = np.diff(self.span_of)
-        first = np.r_[0, np.flatnonzero(step) + 1]
-        self.span_runs = (first, self.span_of[first]) if not np.any(step < 0) else None
+        # where each span's data start: the data run along the spans (sorted by run and parameter, and the
+        # parameters rise within a run), so each span's data are one stretch
+        first = np.r_[0, np.flatnonzero(np.diff(self.span_of)) + 1]
+        self.span_runs = (first, self.span_of[first])
         data_part = (self.design.T @ self.design).tocsr()
         self.data_diag = [data_part.diagonal(k) for k in range(4)]
         self.rhs_data = self.design.T @ self.q
@@ -461,14 +460,10 @@ class _RunFitter:
                 break
             over = np.zeros(self.total)
             ratio = resid / self.tol
-            if self.span_runs is None:
-                for j in range(4):
-                    np.maximum.at(over, self.span_of + j, ratio)
-            else:  # the data run along the spans: the largest per span, then onto its four control points
-                first, span = self.span_runs
-                worst = np.maximum.reduceat(ratio, first)
-                for j in range(4):
-                    over[span + j] = np.maximum(over[span + j], worst)
+            first, span = self.span_runs  # the largest per span, then onto its four control points
+            worst = np.maximum.reduceat(ratio, first)
+            for j in range(4):
+                over[span + j] = np.maximum(over[span + j], worst)
             row_over = window_max(over, self.reach_lo, self.reach_hi)
             prev = self.scale
             assert prev is not None  # set by _setup

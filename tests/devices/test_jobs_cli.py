@@ -83,6 +83,6 @@ def test_start_line_runs_on_the_grbl_simulator_graph_from_that_line():
     proc = subprocess.run([sys.executable, "-m", "flowmc", "run", graph, "--start-line", "7"],
                           capture_output=True, text=True, timeout=120, cwd=REPO)
     assert proc.returncode == 0, proc.stderr
-    assert "job grbl: started at segment 5 (text:7) at X 29.983, Y 30.000, Z 0.000 mm" in proc.stderr
-    assert "job grbl: sent to GRBL as: G0 X29.9828 Y30" in proc.stderr and "job grbl: done" in proc.stderr
+    assert "job grbl: started at segment 5 (text:7) at X 29.981, Y 30.000, Z 0.000 mm" in proc.stderr
+    assert "job grbl: sent to GRBL as: G0 X29.9813 Y30" in proc.stderr and "job grbl: done" in proc.stderr
     assert '"outcome": "done"' in proc.stdout

@@ -57,6 +57,7 @@ def test_the_page_and_its_files_are_served_behind_the_guard(editor):
     assert _get(f"{base}other.js?token={token}")[0] == 404  # viser's own server: not a file of its client
 
 
+@pytest.mark.browser
 def test_a_browser_runs_the_served_client_without_the_default_environment(editor):
     with chromium() as browser:
         ui = EditorPage(browser, editor)

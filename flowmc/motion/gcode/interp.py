@@ -334,16 +334,15 @@ class Interpreter:
             if run_ends is not None and run_ends[i] - i >= _FAST_MIN_RUN and i >= self.slow_until \
                     and not self.frames and not self.loops and src is main and self._fast_ready():
                 stop = min(run_ends[i], (i // _FAST_MAX_RUN + 1) * _FAST_MAX_RUN)  # a fixed grid: reread tokens stay cached
-                if True:
-                    done = run_plain(self, src, i, stop)
-                    if done < 0:
-                        self.slow_until = stop
-                    elif done:
-                        self.pc = i + done
-                        self.blocks_run += done
-                        if len(canon) > max_segments:
-                            raise self._error(src, i + done - 1, _too_many_segments(max_segments))
-                        continue
+                done = run_plain(self, src, i, stop)
+                if done < 0:
+                    self.slow_until = stop
+                elif done:
+                    self.pc = i + done
+                    self.blocks_run += done
+                    if len(canon) > max_segments:
+                        raise self._error(src, i + done - 1, _too_many_segments(max_segments))
+                    continue
             self.pc = i + 1
             if self.frames or self.loops:
                 block = src.cache.get(i, _UNREAD)
@@ -364,20 +363,7 @@ class Interpreter:
                 raise self._error(src, i, _too_many_lines(self.max_blocks))
             self.line_no = i + 1
             self.file_index = src.index
-            try:
-                if block.oword is not None:
-                    self._oword(block, src, i)
-                    if block.oword[1] == "call":
-                        self._run_body()
-                elif block.run is not None:
-                    rest = block.run(self, src, i, True)
-                    if rest is not None:
-                        words, gvals, mvals = rest
-                        self._run_values(block, words, gvals, mvals, src, i)
-                else:
-                    self._block(block, src, i)
-            except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
-                raise self._error(src, i, str(exc)) from None
+            self._run_line(block, src, i)
             if canon.sealed + len(canon.kind) > max_segments:
                 raise self._error(src, i, _too_many_segments(max_segments))
 
@@ -417,24 +403,29 @@ class Interpreter:
                 raise self._error(src, j, _too_many_lines(max_blocks))
             self.line_no = j + 1
             self.file_index = src.index
-            try:
-                if oword is not None:
-                    self._oword(block, src, j)
-                    self._run_body()
-                elif block.run is not None:
-                    rest = block.run(self, src, j, True)
-                    if rest is not None:
-                        words, gvals, mvals = rest
-                        self._run_values(block, words, gvals, mvals, src, j)
-                else:
-                    self._block(block, src, j)
-            except (InterpError, EvalError, ArcError) as exc:
-                raise self._error(src, j, str(exc)) from None
+            self._run_line(block, src, j)
             if canon.sealed + len(canon.kind) > max_segments:
                 raise self._error(src, j, _too_many_segments(max_segments))
             if self.ended or self.frames or self.loops:
                 break
         return done
+
+    def _run_line(self, block: Block, src: Source, i: int) -> None:
+        """Line i's block: an O-word (a call runs its body), a compiled line, or a parsed one; its errors name the line."""
+        try:
+            if block.oword is not None:
+                self._oword(block, src, i)
+                if block.oword[1] == "call":
+                    self._run_body()
+            elif block.run is not None:
+                rest = block.run(self, src, i, True)
+                if rest is not None:
+                    words, gvals, mvals = rest
+                    self._run_values(block, words, gvals, mvals, src, i)
+            else:
+                self._block(block, src, i)
+        except (InterpError, EvalError, ArcError) as exc:  # CompError is an InterpError
+            raise self._error(src, i, str(exc)) from None
 
     def cached_block(self, src: Source, i: int) -> Block | None:
         """Line i of src parsed and, when it has values to work out or is an O-word, compiled; kept,
