@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -36,6 +37,12 @@ def click(editor, node_id, kind=None, port=None):
     return got
 
 
+def page_event(editor, kind, data):
+    """What the page script sends (``window.flowmc.send``): one new value of the hidden channel field."""
+    page_event.n = getattr(page_event, "n", 0) + 1
+    editor.channel.value = json.dumps({"kind": kind, "n": page_event.n, "data": data})
+
+
 def run(editor):
     editor.run_button.value = True
     result = editor.wait()
@@ -60,8 +67,9 @@ def test_opens_the_graph_and_runs_it_with_status_colours(editor):
 
 def test_palette_adds_nodes_that_wire_and_run(editor):
     editor.palette.search.value = "translate"
-    assert next(iter(editor.palette.buttons)) == "path.translate"
-    editor.palette.buttons["path.translate"].value = True
+    assert editor.palette.shown[0].key == "path.translate"
+    assert 'data-flowmc-entry="path.translate"' in editor.palette.list.content
+    page_event(editor, "palette-add", {"key": "path.translate"})
     new = editor.state.selected_nodes[0]
     assert editor.state.node(new).type == "path.translate"
     assert editor.inspector.node_id == new and ("dx",) in editor.inspector.fields
@@ -70,11 +78,15 @@ def test_palette_adds_nodes_that_wire_and_run(editor):
     click(editor, new, "in", "path")
     assert ("both.path", f"{new}.path") in {(w.from_, w.to) for w in editor.state.graph.wires}
     assert run(editor).nodes[new].status == "done"
+    count = len(editor.state.graph.nodes)
+    for data in ({"key": "no.such"}, {"key": ["path.translate"]}, "path.translate", None):  # the page is not trusted
+        page_event(editor, "palette-add", data)
+    assert len(editor.state.graph.nodes) == count
 
 
 def test_incompatible_wire_is_refused_with_a_message(editor):
     editor.palette.search.value = "add"
-    editor.palette.buttons["basic.add"].value = True
+    page_event(editor, "palette-add", {"key": "basic.add"})
     adder = editor.state.selected_nodes[0]
     before = len(editor.state.graph.wires)
     click(editor, "shift", "out", "path")
