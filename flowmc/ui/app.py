@@ -28,7 +28,7 @@ from flowmc.graph import load
 from flowmc.ui import arrange, camera, layout, viser_internals
 from flowmc.ui.actions import Actions
 from flowmc.ui.canvas import Canvas
-from flowmc.ui.examples import ExamplesPanel
+from flowmc.ui.examples import OPEN_EVENT, ExamplesPanel
 from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
 from flowmc.ui.guard import Guard, is_loopback
@@ -154,6 +154,8 @@ class Editor:
         self.on_page_event("palette-add", lambda _client, data: self.palette.picked(data.get("key"))
                            if isinstance(data, dict) else None)
         self.on_page_event("palette-drop", self._palette_drop)
+        self.on_page_event(OPEN_EVENT, lambda client, data: self.examples.picked(data.get("key"), client)
+                           if isinstance(data, dict) else None)
         self.on_page_event("grid", lambda _client, data: self.inspector.grid_event(data.get("grid"), data)
                            if isinstance(data, dict) else None)
 

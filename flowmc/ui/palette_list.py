@@ -5,8 +5,8 @@ One element instead of a viser folder per category and a viser button (with its 
 a page opening the editor built those ~66 Mantine buttons in the frame that applies the server's
 first messages, the largest part of that frame (docs/architecture.md, "Where an open's time goes").
 Here the browser parses one string. The page script (``viser_internals``) sends a click on an entry as
-the page event ``palette-add`` and an entry dragged onto the canvas as ``palette-drop``, both with the
-entry's ``PaletteItem.key`` (``data-flowmc-entry``). Every text from a node type or a graph file is
+the page event ``palette-add`` (``page_button``) and an entry dragged onto the canvas as ``palette-drop``,
+both with the entry's ``PaletteItem.key``. Every text from a node type or a graph file is
 escaped (``escape_html``): a graph file's title is never markup.
 """
 
@@ -15,9 +15,9 @@ from __future__ import annotations
 from flowmc.ui.palette import PaletteItem
 from flowmc.ui.text import escape_html
 
-__all__ = ["render", "labels", "ENTRY_ATTR"]
+__all__ = ["render", "labels", "page_button", "ADD_EVENT"]
 
-ENTRY_ATTR = "data-flowmc-entry"  # the page script finds entries by it
+ADD_EVENT = "palette-add"  # the page script also drags the buttons that send it
 # Looks like viser's own folders (a border with the title on it) and gray buttons, in the theme's colours.
 _STYLE = (
     "<style>"
@@ -51,10 +51,15 @@ def labels(items: list[PaletteItem]) -> list[str]:
     return out
 
 
+def page_button(event: str, key: str, label: str, tip: str = "") -> str:
+    """A button whose click the page script sends as the page event ``event`` with ``{"key": key}``
+    (``data-flowmc-send``, ``data-flowmc-key``); ``tip`` shows on hover."""
+    return (f'<button type="button" data-flowmc-send="{escape_html(event)}" data-flowmc-key="{escape_html(key, 400)}"'
+            f' title="{escape_html(tip)}">{escape_html(label, 120)}</button>')
+
+
 def _entry(item: PaletteItem, label: str) -> str:
-    tip = item.description + (f"\n{item.ports}" if item.ports else "")
-    return (f'<button type="button" {ENTRY_ATTR}="{escape_html(item.key, 400)}" title="{escape_html(tip)}">'
-            f"{escape_html(label, 120)}</button>")
+    return page_button(ADD_EVENT, item.key, label, item.description + (f"\n{item.ports}" if item.ports else ""))
 
 
 def render(groups: dict[str, list[PaletteItem]]) -> str:

@@ -185,11 +185,14 @@ _PAGE_JS = """
     flowmc.send("paste", text.length <= 900000 ? text : "");
     e.preventDefault();
   });
-  let drag = null, dragEnd = 0;  // a palette entry dragged onto the canvas (palette_list: button[ENTRY_ATTR])
-  const entryOf = (t) => t && t.closest && t.closest("button[ENTRY_ATTR]");
+  // buttons in flowmc's HTML (palette_list.page_button) send their event on a click; palette entries can
+  // also be dragged onto the canvas
+  const sender = (t, kind) => t && t.closest && t.closest(kind ? `button[data-flowmc-send="${kind}"]` : "button[data-flowmc-send]");
+  let drag = null, dragEnd = 0;
+  const entryOf = (t) => sender(t, "ADD_EVENT");
   document.addEventListener("pointerdown", (e) => {
     const entry = e.button === 0 && entryOf(e.target);
-    if (entry) drag = { key: entry.getAttribute("ENTRY_ATTR"), label: entry.textContent, x: e.clientX, y: e.clientY, ghost: null };
+    if (entry) drag = { key: entry.dataset.flowmcKey, label: entry.textContent, x: e.clientX, y: e.clientY, ghost: null };
   }, true);
   document.addEventListener("pointermove", (e) => {
     if (drag && !drag.ghost && Math.hypot(e.clientX - drag.x, e.clientY - drag.y) > 8) {
@@ -211,8 +214,8 @@ _PAGE_JS = """
     if (at) flowmc.send("palette-drop", { key: d.key, u: at.u, v: at.v });
   }, true);
   document.addEventListener("click", (e) => {
-    const entry = entryOf(e.target);
-    if (entry && performance.now() - dragEnd > 100) flowmc.send("palette-add", { key: entry.getAttribute("ENTRY_ATTR") });
+    const b = sender(e.target);
+    if (b && performance.now() - dragEnd > 100) flowmc.send(b.dataset.flowmcSend, { key: b.dataset.flowmcKey });
   });
   flowmc.tips = [];  // [x0, y0, x1, y1, text]: canvas rectangles (world units) whose full text shows on hover
   const tip = (e) => {
@@ -301,7 +304,7 @@ def install_page(client: Any, channel: Any) -> None:
     """``window.flowmc`` in ``client``'s page; its events arrive as updates of the text field ``channel``
     (labelled ``CHANNEL_LABEL``, which the script hides)."""
     source = (_PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
-              .replace("NOTIFICATION_CSS", NOTIFICATION_CSS).replace("ENTRY_ATTR", palette_list.ENTRY_ATTR))
+              .replace("NOTIFICATION_CSS", NOTIFICATION_CSS).replace("ADD_EVENT", palette_list.ADD_EVENT))
     _send(client, source)
 
 

@@ -178,14 +178,14 @@ def test_the_palette_list_has_an_entry_per_item_and_shows_file_text_as_text():
     items = categories(palette_items(default_registry()))
     page = palette_list.render(items)
     assert page.count("<details open>") == len(items) and page.count("<button ") == sum(map(len, items.values()))
-    assert 'data-flowmc-entry="path.translate"' in page
+    assert 'data-flowmc-key="path.translate"' in page
     hostile = PaletteItem("subgraph", '<img src=x onerror="alert(1)">', "Graph files", 'said "hi" <b>',
                           {"file": 'a"b.flowmc.json'})
     same = PaletteItem("subgraph", '<img src=x onerror="alert(1)">', "Graph files", "", {"file": "c.flowmc.json"})
     page = palette_list.render({"<i>Graph</i> files": [hostile, same]})
     assert "<img" not in page and "<b>" not in page and "<i>" not in page
     assert page.count("&lt;img src=x onerror=&quot;alert(1)&quot;&gt;") == 2
-    assert 'data-flowmc-entry="subgraph:a&quot;b.flowmc.json"' in page
+    assert 'data-flowmc-key="subgraph:a&quot;b.flowmc.json"' in page
     assert palette_list.labels([hostile, same])[1].endswith("(Graph files)")  # the same title twice: told apart
 
 

@@ -20,6 +20,7 @@ from editor_graphs import chain_file, example_file
 from flowmc.devices.session import DeviceSession
 from flowmc.ui import layout
 from flowmc.ui.app import Editor
+from flowmc.ui.examples import examples_dir
 from flowmc.ui.text import unescape_md
 from wire_client import messages_on_connect
 
@@ -68,7 +69,7 @@ def test_opens_the_graph_and_runs_it_with_status_colours(editor):
 def test_palette_adds_nodes_that_wire_and_run(editor):
     editor.palette.search.value = "translate"
     assert editor.palette.shown[0].key == "path.translate"
-    assert 'data-flowmc-entry="path.translate"' in editor.palette.list.content
+    assert 'data-flowmc-key="path.translate"' in editor.palette.list.content
     page_event(editor, "palette-add", {"key": "path.translate"})
     new = editor.state.selected_nodes[0]
     assert editor.state.node(new).type == "path.translate"
@@ -82,6 +83,15 @@ def test_palette_adds_nodes_that_wire_and_run(editor):
     for data in ({"key": "no.such"}, {"key": ["path.translate"]}, "path.translate", None):  # the page is not trusted
         page_event(editor, "palette-add", data)
     assert len(editor.state.graph.nodes) == count
+
+
+def test_an_example_opens_from_its_listed_name_only(editor):
+    for data in ({"key": "../example.flowmc.json"}, {"key": "nothing.flowmc.json"}, "thesis_3axis.flowmc.json"):
+        page_event(editor, "example-open", data)
+    assert editor.state.path.name == "example.flowmc.json"
+    page_event(editor, "example-open", {"key": "thesis_3axis.flowmc.json"})
+    assert editor.state.path.name == "thesis_3axis.flowmc.json"
+    assert editor.state.path.parent == examples_dir()
 
 
 def test_incompatible_wire_is_refused_with_a_message(editor):
