@@ -187,7 +187,8 @@ _PAGE_JS = """
   });
   // buttons in flowmc's HTML (palette_list.page_button) send their event on a click; palette entries can
   // also be dragged onto the canvas
-  const sender = (t, kind) => t && t.closest && t.closest(kind ? `button[data-flowmc-send="${kind}"]` : "button[data-flowmc-send]");
+  const sender = (t, kind) => t && t.closest
+    && t.closest(kind ? `button[data-flowmc-send="${kind}"]` : "button[data-flowmc-send]");
   let drag = null, dragEnd = 0;
   const entryOf = (t) => sender(t, "ADD_EVENT");
   document.addEventListener("pointerdown", (e) => {
