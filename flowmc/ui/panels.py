@@ -28,7 +28,7 @@ class PalettePanel:
         self.host, self.container = host, container
         gui = host.gui
         with container:
-            gui.add_html('<div style="font-size:12px;opacity:.75">'
+            gui.add_html('<div style="font-size:12px;opacity:.75;padding:0 var(--mantine-spacing-xs) .4em">'
                          'Click to add at the middle of the view, or drag onto the canvas.</div>')
             self.search = gui.add_text("Search", "", hint="Part of a name, category, description or port type (e.g. Trajectory)")
             self.count = gui.add_markdown("")
