@@ -28,7 +28,7 @@ from flowmc.graph import load
 from flowmc.ui import arrange, camera, layout, viser_internals
 from flowmc.ui.actions import Actions
 from flowmc.ui.canvas import Canvas
-from flowmc.ui.examples import ExamplesPanel
+from flowmc.ui.examples import OPEN_EVENT, ExamplesPanel
 from flowmc.ui.extensions import Extensions
 from flowmc.ui.files_panel import FilesPanel
 from flowmc.ui.guard import Guard, is_loopback
@@ -97,8 +97,9 @@ class Editor:
         self.state.subscribe(self._on_state)
         self.server.on_client_connect(self._on_connect)
         self.structure_ui = StructureUI(self)  # after the editor's own listeners: the canvas is drawn first
+        self.canvas.geometry()
+        self.canvas.fit()  # where the first page starts: its zoom decides whether the first drawing has details
         self.canvas.sync()
-        self.canvas.fit()  # where the first page starts
         self._refresh_side()
 
     @property
@@ -150,8 +151,12 @@ class Editor:
             command = gui.add_command(label, hotkey=key, modifier=mod)
             command.on_trigger(lambda _e, a=action: self.edit(a))
         self.on_page_event("paste", lambda _client, data: self.actions.paste_text(data if isinstance(data, str) else None))
+        self.on_page_event("palette-add", lambda _client, data: self.palette.picked(data.get("key"))
+                           if isinstance(data, dict) else None)
         self.on_page_event("palette-drop", self._palette_drop)
         self.on_page_event("view", camera.resized)  # the page's size in CSS pixels: framing and legibility use it
+        self.on_page_event(OPEN_EVENT, lambda client, data: self.examples.picked(data.get("key"), client)
+                           if isinstance(data, dict) else None)
         self.on_page_event("grid", lambda _client, data: self.inspector.grid_event(data.get("grid"), data)
                            if isinstance(data, dict) else None)
 
@@ -162,15 +167,15 @@ class Editor:
             self.canvas.set_theme(name)
 
     def _palette_drop(self, client: Any, data: Any) -> None:
-        """A palette entry dragged onto the canvas: ``data`` is its label and where it was let go (0..1 of the view)."""
+        """A palette entry dragged onto the canvas: ``data`` is its key and where it was let go (0..1 of the view)."""
         try:
-            label, u, v = data["label"], float(data["u"]), float(data["v"])
+            key, u, v = data["key"], float(data["u"]), float(data["v"])
         except (TypeError, KeyError, ValueError):
             return
         if not (0.0 <= u <= 1.0 and 0.0 <= v <= 1.0):
             return
         at = layout.to_canvas(*camera.world_at(client.camera, u, v))
-        self.palette.dropped(label, at)
+        self.palette.picked(key, at)
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         viser_internals.install_page(client, self.channel)

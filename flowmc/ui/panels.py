@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from flowmc.graph import Issue
-from flowmc.ui import canvas_draw
+from flowmc.ui import canvas_draw, palette_list
 from flowmc.ui.palette import PaletteItem, categories, palette_items, search
 from flowmc.ui.text import md, plain
 
@@ -18,33 +18,29 @@ MAX_PROBLEMS = 25
 
 
 class PalettePanel:
-    """The node palette, built in ``container`` (a tab): a search box and one button per
-    entry, in category folders (or, while searching, the matches best first). A click adds the node
-    at a free spot in the middle of the view; dragging a button onto the canvas adds it where it is
-    dropped (the page script sends ``palette-drop``). ``buttons`` is keyed by ``PaletteItem.key``
-    (``path.translate``, ``lib.pocket``, ``subgraph:part.flowmc.json``)."""
+    """The node palette, built in ``container`` (a tab): a search box and the entries as one HTML list
+    (``palette_list``), in category folders (or, while searching, the matches best first). A click on an
+    entry adds the node at a free spot in the middle of the view (the page script sends ``palette-add``);
+    dragging it onto the canvas adds it where it is dropped (``palette-drop``). ``shown`` is what the list
+    shows, in order."""
 
     def __init__(self, host: "PanelHost", container: Any):
         self.host, self.container = host, container
         gui = host.gui
         with container:
-            self._build(gui)
-        self.folders: list[Any] = []
-        self.buttons: dict[str, Any] = {}
-        self.by_label: dict[str, PaletteItem] = {}
+            gui.add_html('<div style="font-size:12px;opacity:.75;padding:0 var(--mantine-spacing-xs) .4em">'
+                         'Click to add at the middle of the view, or drag onto the canvas.</div>')
+            self.search = gui.add_text("Search", "", hint="Part of a name, category, description or port type (e.g. Trajectory)")
+            self.count = gui.add_markdown("")
+            self.list = gui.add_html("")
         self.items: list[PaletteItem] = []
+        self.shown: list[PaletteItem] = []
         self.search.on_update(lambda _e: self.refresh(reload=False))
         self.refresh()
 
-    def _build(self, gui: Any) -> None:
-        gui.add_html('<div data-flowmc-palette="1" style="font-size:12px;opacity:.75">'
-                     'Click to add at the middle of the view, or drag onto the canvas.</div>')
-        self.search = gui.add_text("Search", "", hint="Part of a name, category, description or port type (e.g. Trajectory)")
-        self.count = gui.add_markdown("")
-
     def refresh(self, reload: bool = True) -> None:
         """Show the entries matching the search text (``reload``: look at the node types and files again)."""
-        state, gui = self.host.session.state, self.host.gui
+        state = self.host.session.state
         with self.host.session.lock:
             if reload or not self.items:
                 self.items = palette_items(self.host.session.runtime.registry, state.base_dir, exclude=state.path)
@@ -52,25 +48,9 @@ class PalettePanel:
             found = search(self.items, query)
             self.count.content = (md("{} of {} entries match", len(found), len(self.items)) if query
                                   else md("{} entries", len(self.items)))
-            for folder in self.folders:
-                folder.remove()
-            self.folders, self.buttons, self.by_label = [], {}, {}
             groups = {"Matches": found} if query else categories(found)
-            with self.container:
-                for name, items in groups.items():
-                    folder = gui.add_folder(plain(name, 80), expand_by_default=True)
-                    self.folders.append(folder)
-                    with folder:
-                        for item in items:
-                            self._button(item)
-
-    def _button(self, item: PaletteItem) -> None:
-        label = plain(item.title if item.title not in self.by_label else f"{item.title} ({item.category})", 120)
-        hint = plain(item.description + (f"\n{item.ports}" if item.ports else ""))
-        button = self.host.gui.add_button(label, hint=hint, color="gray")
-        button.on_click(lambda _e, item=item: self.add(item))
-        self.buttons[item.key] = button
-        self.by_label[label] = item
+            self.shown = [item for items in groups.values() for item in items]
+            self.list.content = palette_list.render(groups)
 
     def add(self, item: PaletteItem, at: tuple[float, float] | None = None) -> str:
         """Add ``item`` at the free spot nearest ``at`` (canvas pixels; default the middle of the view), and select it."""
@@ -78,9 +58,10 @@ class PalettePanel:
         self.host.notify("info", f"added {node_id} ({item.title})")
         return node_id
 
-    def dropped(self, label: Any, at: tuple[float, float]) -> str | None:
-        """A palette button dropped on the canvas at ``at`` (canvas px): add its entry there."""
-        item = self.by_label.get(label) if isinstance(label, str) else None
+    def picked(self, key: Any, at: tuple[float, float] | None = None) -> str | None:
+        """The entry with ``key`` clicked (``at`` None) or dropped on the canvas at ``at`` (canvas px): add it.
+        A key the palette does not hold (the page is not trusted) is ignored."""
+        item = next((i for i in self.items if i.key == key), None) if isinstance(key, str) else None
         return self.add(item, at) if item is not None else None
 
 

@@ -2,7 +2,7 @@
 
 viser has no way to stop the camera orbiting, set the browser tab's title, place notifications,
 start a download without a second click, or send page events viser does not know (a palette entry
-dropped on the canvas, text pasted from the clipboard, a grid cell edited). Each is a few lines
+clicked or dropped on the canvas, text pasted from the clipboard, a grid cell edited). Each is a few lines
 of JavaScript sent with viser's internal ``RunJavascriptMessage`` to one client (so nothing piles
 up in the broadcast buffer that new clients replay).
 
@@ -52,7 +52,7 @@ from viser import _messages
 from websockets.datastructures import Headers
 from websockets.http11 import Response
 
-from flowmc.ui import viser_client
+from flowmc.ui import palette_list, viser_client
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
 __all__ = ["guarded_server", "lock_flat_camera", "fold_narrow_controls", "set_page_title", "install_page", "download",
@@ -202,13 +202,15 @@ _PAGE_JS = """
     flowmc.send("paste", text.length <= 900000 ? text : "");
     e.preventDefault();
   });
-  let drag = null;  // a palette button dragged onto the canvas
+  // buttons in flowmc's HTML (palette_list.page_button) send their event on a click; palette entries can
+  // also be dragged onto the canvas
+  const sender = (t, kind) => t && t.closest
+    && t.closest(kind ? `button[data-flowmc-send="${kind}"]` : "button[data-flowmc-send]");
+  let drag = null, dragEnd = 0;
+  const entryOf = (t) => sender(t, "ADD_EVENT");
   document.addEventListener("pointerdown", (e) => {
-    const button = e.button === 0 && e.target.closest && e.target.closest("button");
-    const marker = document.querySelector("[data-flowmc-palette]");
-    const root = marker && marker.closest(".mantine-ScrollArea-content");  // the palette tab's scrolling list
-    if (button && root && root.contains(button))
-      drag = { label: button.textContent.trim(), x: e.clientX, y: e.clientY, ghost: null };
+    const entry = e.button === 0 && entryOf(e.target);
+    if (entry) drag = { key: entry.dataset.flowmcKey, label: entry.textContent, x: e.clientX, y: e.clientY, ghost: null };
   }, true);
   document.addEventListener("pointermove", (e) => {
     if (drag && !drag.ghost && Math.hypot(e.clientX - drag.x, e.clientY - drag.y) > 8) {
@@ -225,9 +227,14 @@ _PAGE_JS = """
     const d = drag; drag = null;
     if (!d || !d.ghost) return;
     d.ghost.remove();
+    dragEnd = performance.now();  // a drag let go over its own entry is no click
     const at = viewPoint(e);
-    if (at) flowmc.send("palette-drop", { label: d.label, u: at.u, v: at.v });
+    if (at) flowmc.send("palette-drop", { key: d.key, u: at.u, v: at.v });
   }, true);
+  document.addEventListener("click", (e) => {
+    const b = sender(e.target);
+    if (b && performance.now() - dragEnd > 100) flowmc.send(b.dataset.flowmcSend, { key: b.dataset.flowmcKey });
+  });
   flowmc.tips = [];  // [x0, y0, x1, y1, text]: canvas rectangles (world units) whose full text shows on hover
   const tip = (e) => {
     const m = window.__viserMutable, c = m && m.canvas, body = m && m.nodeRefFromName && m.nodeRefFromName["/canvas/body"];
@@ -315,7 +322,7 @@ def install_page(client: Any, channel: Any) -> None:
     """``window.flowmc`` in ``client``'s page; its events arrive as updates of the text field ``channel``
     (labelled ``CHANNEL_LABEL``, which the script hides)."""
     source = (_PAGE_JS.replace("CHANNEL", json.dumps(channel._impl.uuid)).replace("LABEL", json.dumps(CHANNEL_LABEL))
-              .replace("NOTIFICATION_CSS", NOTIFICATION_CSS))
+              .replace("NOTIFICATION_CSS", NOTIFICATION_CSS).replace("ADD_EVENT", palette_list.ADD_EVENT))
     _send(client, source)
 
 

@@ -13,9 +13,9 @@ from editor_graphs import example_file
 from flowmc.errors import GraphError
 from flowmc.graph import dumps, load, loads
 from flowmc.plugins import default_registry
-from flowmc.ui import arrange, clipboard
+from flowmc.ui import arrange, clipboard, palette_list
 from flowmc.ui.arrange import Rect
-from flowmc.ui.palette import categories, palette_items, search
+from flowmc.ui.palette import PaletteItem, categories, palette_items, search
 from flowmc.ui.state import EditorState
 from flowmc.ui.text import unescape_md
 
@@ -172,6 +172,21 @@ def test_palette_finds_nodes_by_port_type_and_groups_by_category():
     assert "path.translate" in {i.type_id for i in search(items, "translate path")}
     groups = categories(items)
     assert list(groups)[0] == "Path" and sum(map(len, groups.values())) == len(items)
+
+
+def test_the_palette_list_has_an_entry_per_item_and_shows_file_text_as_text():
+    items = categories(palette_items(default_registry()))
+    page = palette_list.render(items)
+    assert page.count("<details open>") == len(items) and page.count("<button ") == sum(map(len, items.values()))
+    assert 'data-flowmc-key="path.translate"' in page
+    hostile = PaletteItem("subgraph", '<img src=x onerror="alert(1)">', "Graph files", 'said "hi" <b>',
+                          {"file": 'a"b.flowmc.json'})
+    same = PaletteItem("subgraph", '<img src=x onerror="alert(1)">', "Graph files", "", {"file": "c.flowmc.json"})
+    page = palette_list.render({"<i>Graph</i> files": [hostile, same]})
+    assert "<img" not in page and "<b>" not in page and "<i>" not in page
+    assert page.count("&lt;img src=x onerror=&quot;alert(1)&quot;&gt;") == 2
+    assert 'data-flowmc-key="subgraph:a&quot;b.flowmc.json"' in page
+    assert palette_list.labels([hostile, same])[1].endswith("(Graph files)")  # the same title twice: told apart
 
 
 # ---------------------------------------------------------------- a sub-graph's interface and its parents

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -15,11 +16,13 @@ from pathlib import Path
 import pytest
 
 import flowmc
-from editor_graphs import example_file
+from editor_graphs import chain_file, example_file
 from flowmc.devices.session import DeviceSession
 from flowmc.ui import layout
 from flowmc.ui.app import Editor
+from flowmc.ui.examples import examples_dir
 from flowmc.ui.text import unescape_md
+from wire_client import messages_on_connect
 
 
 @pytest.fixture
@@ -33,6 +36,12 @@ def click(editor, node_id, kind=None, port=None):
     spot = box.port(kind, port) if kind is not None else None
     got = editor.canvas.click(*box.centre) if spot is None else editor.canvas.click(spot.x, spot.y)
     return got
+
+
+def page_event(editor, kind, data):
+    """What the page script sends (``window.flowmc.send``): one new value of the hidden channel field."""
+    page_event.n = getattr(page_event, "n", 0) + 1
+    editor.channel.value = json.dumps({"kind": kind, "n": page_event.n, "data": data})
 
 
 def run(editor):
@@ -59,8 +68,9 @@ def test_opens_the_graph_and_runs_it_with_status_colours(editor):
 
 def test_palette_adds_nodes_that_wire_and_run(editor):
     editor.palette.search.value = "translate"
-    assert next(iter(editor.palette.buttons)) == "path.translate"
-    editor.palette.buttons["path.translate"].value = True
+    assert editor.palette.shown[0].key == "path.translate"
+    assert 'data-flowmc-key="path.translate"' in editor.palette.list.content
+    page_event(editor, "palette-add", {"key": "path.translate"})
     new = editor.state.selected_nodes[0]
     assert editor.state.node(new).type == "path.translate"
     assert editor.inspector.node_id == new and ("dx",) in editor.inspector.fields
@@ -69,11 +79,24 @@ def test_palette_adds_nodes_that_wire_and_run(editor):
     click(editor, new, "in", "path")
     assert ("both.path", f"{new}.path") in {(w.from_, w.to) for w in editor.state.graph.wires}
     assert run(editor).nodes[new].status == "done"
+    count = len(editor.state.graph.nodes)
+    for data in ({"key": "no.such"}, {"key": ["path.translate"]}, "path.translate", None):  # the page is not trusted
+        page_event(editor, "palette-add", data)
+    assert len(editor.state.graph.nodes) == count
+
+
+def test_an_example_opens_from_its_listed_name_only(editor):
+    for data in ({"key": "../example.flowmc.json"}, {"key": "nothing.flowmc.json"}, "thesis_3axis.flowmc.json"):
+        page_event(editor, "example-open", data)
+    assert editor.state.path.name == "example.flowmc.json"
+    page_event(editor, "example-open", {"key": "thesis_3axis.flowmc.json"})
+    assert editor.state.path.name == "thesis_3axis.flowmc.json"
+    assert editor.state.path.parent == examples_dir()
 
 
 def test_incompatible_wire_is_refused_with_a_message(editor):
     editor.palette.search.value = "add"
-    editor.palette.buttons["basic.add"].value = True
+    page_event(editor, "palette-add", {"key": "basic.add"})
     adder = editor.state.selected_nodes[0]
     before = len(editor.state.graph.wires)
     click(editor, "shift", "out", "path")
@@ -363,3 +386,21 @@ def test_box_select_adds_the_nodes_inside(editor):
     a, b = boxes["table"], boxes["shift"]
     inside = editor.canvas.select_box(a.x - 0.1, b.y - b.h - 0.1, b.x + b.w + 0.1, a.y + 0.1)
     assert sorted(inside) == ["shift", "table"] and sorted(editor.state.selected_nodes) == ["shift", "table"]
+
+
+def test_a_page_opening_120_nodes_gets_each_title_once_and_no_hidden_labels(tmp_path, open_editor):
+    """At Fit a 120-node graph is too small to read port names: the page is sent the titles, one label each
+    under one frame, and no detail labels made and dropped before it connected."""
+    ed = open_editor(chain_file(tmp_path, 120), extensions=False)
+    messages = messages_on_connect(ed)
+    labels = [m["name"] for m in messages if m["type"] == "LabelMessage"]
+    assert sorted(labels) == sorted(f"/canvas/titles/{b.node_id}.title" for b in ed.canvas.boxes)
+    assert not [m for m in messages if m["type"] == "RemoveSceneNodeMessage"]
+    frames = {m["name"] for m in messages if m["type"] == "FrameMessage"}
+    assert not [f for f in frames if f.startswith(("/canvas/titles/", "/canvas/detail/"))]
+    ed.canvas.texts.zoom(1.0)  # close enough to read: the details come, still one label per text
+    ed.server.flush()
+    again = messages_on_connect(ed)
+    names = {m["name"] for m in again if m["type"] == "LabelMessage"}
+    assert "/canvas/detail/t12.in.dx" in names and "/canvas/titles/t12.title" in names
+    assert not [m for m in again if m["type"] == "FrameMessage" and m["name"].startswith("/canvas/detail/")]
