@@ -102,6 +102,6 @@ def test_validate_builds_only_the_models_it_uses():
     code, built = proc.stdout.strip().splitlines()[-1].split(" ", 1)
     assert code == "0"
     assert "flowmc.graph.Graph" in built and "flowmc.nodes.devices.HomeParams" in built
-    for unused in ("flowmc.nodes.devices.JogParams", "flowmc.nodes.devices.PwmParams",
+    for unused in ("flowmc.nodes.devices.JogParams", "flowmc.nodes.devices.WaitInputParams",
                    "flowmc.nodes.devices.PreflightParams", "flowmc.nodes.planning.StopAndGoParams"):
         assert unused not in built
