@@ -10,8 +10,8 @@ Start (the editor's button, ``flowmc run``) hands the job to a ``JobRunner``. Th
 output), only Start needs it, and the simulated card carries on from the state that log ends in.
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 from dataclasses import replace
 from typing import TYPE_CHECKING, Annotated, Literal
 
@@ -67,7 +67,7 @@ def _machine_for(machine: Machine | None, motion=None) -> Machine:
     return default_machine()
 
 
-def _options(params: _DeviceParams) -> DeviceOptions:
+def _options(params: _DeviceParams) -> "DeviceOptions":
     """The device's options from the node's params (the state to resume from comes at Start)."""
     from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions
 
@@ -78,7 +78,7 @@ def _options(params: _DeviceParams) -> DeviceOptions:
         grbl=GrblOptions(card.grbl_pen_down, card.grbl_pen_up) if card else GrblOptions())
 
 
-def _report(ctx, log: DeviceLog) -> None:
+def _report(ctx, log: "DeviceLog") -> None:
     for event in log.events:
         ctx.log(f"{event.kind} at t={event.t:.3f} s{' ' + event.axis if event.axis else ''}: {event.message}")
     if log.outcome != "done":
@@ -92,7 +92,7 @@ class _DeviceNode(NodeType):
     moves = True
     start_inputs = ("after",)
 
-    def start(self, ctx, job: Job, after: DeviceLog | None = None) -> dict:
+    def start(self, ctx, job: "Job", after: "DeviceLog | None" = None) -> dict:
         try:
             from flowmc.devices.jobs.prepare import start_job
 
@@ -188,7 +188,7 @@ class CardOutput(_DeviceNode):
     inputs = (_MOTION_IN, _SIGNALS_IN, _MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def prepare(self, ctx, params: CardOutputParams, motion, signals=None, machine=None) -> Job:
+    def prepare(self, ctx, params: CardOutputParams, motion, signals=None, machine=None) -> "Job":
         machine = _machine_for(machine, motion)
         from flowmc.devices.jobs import SafeOutputs
         from flowmc.devices.jobs.prepare import program_job
@@ -216,7 +216,7 @@ class Home(_DeviceNode):
     inputs = (_MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def prepare(self, ctx, params: HomeParams, machine=None) -> Job:
+    def prepare(self, ctx, params: HomeParams, machine=None) -> "Job":
         axes = tuple(params.axes.replace(",", "").replace(" ", "").upper()) or None
         from flowmc.devices.jobs.prepare import home_job
 
@@ -240,7 +240,7 @@ class Jog(_DeviceNode):
     inputs = (_MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def prepare(self, ctx, params: JogParams, machine=None) -> Job:
+    def prepare(self, ctx, params: JogParams, machine=None) -> "Job":
         from flowmc.devices.jobs.prepare import jog_job
 
         return jog_job(params.device, _machine_for(machine), params.axis.strip().upper(), params.distance, params.speed,
@@ -259,7 +259,7 @@ class IONow(_DeviceNode):
     inputs = (In("signals", "Signal", doc="Outputs to set", default=None), _MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT, Out("inputs", "Number", doc="Input levels as a bit mask: bit n-1 is input n"))
 
-    def prepare(self, ctx, params: _DeviceParams, signals=None, machine=None) -> Job:
+    def prepare(self, ctx, params: _DeviceParams, signals=None, machine=None) -> "Job":
         from flowmc.devices.jobs.prepare import io_job
         from flowmc.motion.trajectory import Signal
 
@@ -297,7 +297,7 @@ class WaitInput(_DeviceNode):
     outputs = (_LOG_OUT, Out("waited", "Number", doc="Seconds waited (s)"),
                Out("came", "Bool", doc="Whether the input came before the timeout"))
 
-    def prepare(self, ctx, params: WaitInputParams, machine=None) -> Job:
+    def prepare(self, ctx, params: WaitInputParams, machine=None) -> "Job":
         from flowmc.devices.jobs.prepare import wait_job
 
         options = _options(params)
@@ -309,6 +309,6 @@ class WaitInput(_DeviceNode):
         ctx.log(f"ready: {job.describe()}, at most {params.timeout:g} s")
         return job
 
-    def start(self, ctx, job: Job, after: DeviceLog | None = None) -> dict:
+    def start(self, ctx, job: "Job", after: "DeviceLog | None" = None) -> dict:
         outputs = super().start(ctx, job, after)
         return {**outputs, "came": bool(outputs["came"])}
