@@ -197,10 +197,12 @@ def _start_options(args: argparse.Namespace, prepared: Any) -> dict[str, Any]:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    import flowmc
+    from flowmc.graph import load
+    from flowmc.runtime.context import Site
+    from flowmc.runtime.schedule import make_plan  # as Runtime.plan does, without the executor: nothing runs
 
-    graph = flowmc.load(args.file)
-    plan = flowmc.Runtime(_registry(args)).plan(graph)
+    graph = load(args.file)
+    plan = make_plan(graph, Site.for_graph(graph.base_dir, graph.path), _registry(args))
     if plan.issues:
         _print_issues(args.file, plan.issues)
         return EXIT_INVALID
@@ -336,19 +338,14 @@ def _sweep_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from flowmc import __version__
+def _plugin_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--nodes", action="append", default=[], metavar="DIR",
+                   help="also load the node types in this folder's *.py files (repeatable)")
+    p.add_argument("--memory-mb", type=float, metavar="MB",
+                   help="memory budget for what one node may produce (default 256 MB, or FLOWMC_MEMORY_MB)")
 
-    parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
-    parser.add_argument("--version", action="version", version=f"flowmc {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    plugins = argparse.ArgumentParser(add_help=False)
-    plugins.add_argument("--nodes", action="append", default=[], metavar="DIR",
-                         help="also load the node types in this folder's *.py files (repeatable)")
-    plugins.add_argument("--memory-mb", type=float, metavar="MB",
-                         help="memory budget for what one node may produce (default 256 MB, or FLOWMC_MEMORY_MB)")
 
-    p = sub.add_parser("run", parents=[plugins], help="run a graph headless")
+def _run_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="graph file (*.flowmc.json)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a stored param")
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE", help="give an interface input")
@@ -370,26 +367,23 @@ def build_parser() -> argparse.ArgumentParser:
     jobs.add_argument("--feed", type=float, metavar="PCT", help="feed override, 10-200 %% (default 100)")
     jobs.add_argument("--rapid", type=float, metavar="PCT", help="rapid override, 25, 50 or 100 %%")
     jobs.add_argument("--spindle", type=float, metavar="PCT", help="spindle override, 50-200 %%")
-    p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("validate", parents=[plugins], help="check a graph without running it")
+
+def _validate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="graph file (*.flowmc.json)")
-    p.set_defaults(func=cmd_validate)
 
-    p = sub.add_parser("nodes", parents=[plugins], help="list every node type with its ports and params")
+
+def _nodes_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="machine-readable description")
-    p.set_defaults(func=cmd_nodes)
 
-    p = sub.add_parser("schema", help="print the graph file JSON Schema")
-    p.set_defaults(func=cmd_schema)
 
-    p = sub.add_parser("serve", parents=[plugins], help="open the graph editor in the browser")
+def _serve_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", nargs="?", help="graph file to open (default: browse the current folder)")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default: this machine only)")
     p.add_argument("--port", type=int, default=8080, help="port to listen on (default: 8080)")
-    p.set_defaults(func=cmd_serve)
 
-    p = sub.add_parser("compare", parents=[plugins], help="compare a graph's motion with LinuxCNC's")
+
+def _compare_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("graph", help="graph file whose last Path (and Machine, and look-ahead plan) is compared")
     p.add_argument("--with", dest="reference", choices=["linuxcnc"], default="linuxcnc",
                    help="the reference that runs the same program (default: linuxcnc)")
@@ -399,13 +393,45 @@ def build_parser() -> argparse.ArgumentParser:
                    help="flowmc's profile (default: trapezoid, as LinuxCNC's planner; scurve is listed as a difference)")
     p.add_argument("--as-planned", action="store_true",
                    help="compare the graph's own look-ahead plan as it is, differences listed at the top")
-    p.set_defaults(func=cmd_compare)
 
-    p = sub.add_parser("sweep", parents=[plugins],
-                       help="run a graph over many settings (a grid, a table, a folder of files) in parallel")
-    _sweep_arguments(p)
-    p.set_defaults(func=cmd_sweep)
+
+# name -> (help, takes --nodes and --memory-mb, its own arguments, what runs it)
+_COMMANDS: dict[str, tuple[str, bool, Callable[[argparse.ArgumentParser], None], Callable[..., int]]] = {
+    "run": ("run a graph headless", True, _run_arguments, cmd_run),
+    "validate": ("check a graph without running it", True, _validate_arguments, cmd_validate),
+    "nodes": ("list every node type with its ports and params", True, _nodes_arguments, cmd_nodes),
+    "schema": ("print the graph file JSON Schema", False, lambda p: None, cmd_schema),
+    "serve": ("open the graph editor in the browser", True, _serve_arguments, cmd_serve),
+    "compare": ("compare a graph's motion with LinuxCNC's", True, _compare_arguments, cmd_compare),
+    "sweep": ("run a graph over many settings (a grid, a table, a folder of files) in parallel", True,
+              _sweep_arguments, cmd_sweep),
+}
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The whole command line; with ``command``, only that command's arguments are built (the others are
+    listed, with their help): a cold ``flowmc validate`` does not build ``flowmc run``'s and ``flowmc
+    sweep``'s options (benchmarks/cold_start.py)."""
+    from flowmc import __version__
+
+    parser = argparse.ArgumentParser(prog="flowmc", description="Dataflow graphs for motion control.")
+    parser.add_argument("--version", action="version", version=f"flowmc {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, (text, plugins, arguments, func) in _COMMANDS.items():
+        p = sub.add_parser(name, help=text)
+        if command is None or command == name:
+            if plugins:
+                _plugin_arguments(p)
+            arguments(p)
+            p.set_defaults(func=func)
     return parser
+
+
+def _command_in(argv: list[str]) -> str | None:
+    """The command ``argv`` names (the first word that is not an option: the top level's options take no
+    value), or None when it names none that exists (the full parser then says what is wrong)."""
+    word = next((a for a in argv if not a.startswith("-")), None)
+    return word if word in _COMMANDS else None
 
 
 def _set_memory_budget(megabytes: float) -> None:
@@ -418,7 +444,13 @@ def _set_memory_budget(megabytes: float) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    # pydantic looks for its plugins (observers of every validation) by reading the entry points of every
+    # installed distribution, on the first model a process builds: a tenth of a cold ``flowmc validate``'s
+    # own time. flowmc's models are its file formats and node params, which nothing plugs into, so the
+    # command goes without them unless PYDANTIC_DISABLE_PLUGINS is set (empty: load them all; README.md).
+    os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
+    argv = sys.argv[1:] if argv is None else argv
+    args = build_parser(_command_in(argv)).parse_args(argv)
     try:
         if getattr(args, "memory_mb", None) is not None:
             _set_memory_budget(args.memory_mb)

@@ -15,8 +15,8 @@ a change to it diffs as a change to that node. Reusable graphs stay separate fil
 (sub-graphs, ``file``); docs/structures.md says why.
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations`` here: with it every field's annotation is a string that pydantic
+# compiles when it builds the model, at the start of every command (benchmarks/cold_start.py).
 import json
 import math
 import os

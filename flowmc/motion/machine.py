@@ -1,7 +1,7 @@
 """A machine's axes and their limits: the one place planners, interpolators and pre-flight read them from."""
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 from typing import TYPE_CHECKING, Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -62,7 +62,7 @@ class Machine(BaseModel):
     def names(self) -> tuple[str, ...]:
         return tuple(a.name for a in self.axes)
 
-    def column(self, field: str) -> np.ndarray:
+    def column(self, field: str) -> "np.ndarray":
         """One limit for every axis as an array, e.g. ``machine.column("vmax")``."""
         import numpy as np
 

@@ -7,8 +7,8 @@ clockwise when ``end_angle > start_angle``. Angles are in degrees. A sweep past 
 full turns; with ``dz`` the arc climbs into a helix.
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 import math
 from typing import TYPE_CHECKING, Annotated, Literal, Union
 
@@ -83,7 +83,7 @@ def _check_direction(row, where: str) -> float:
     return math.radians(sweep)
 
 
-def _arc(row: ArcRow, start: np.ndarray, state: dict, where: str) -> Arc:
+def _arc(row: ArcRow, start: "np.ndarray", state: dict, where: str) -> "Arc":
     import numpy as np
 
     from flowmc.motion.path import Arc
@@ -100,7 +100,7 @@ def _arc(row: ArcRow, start: np.ndarray, state: dict, where: str) -> Arc:
     return Arc(start, end, center, normal_axis=2, ccw=sweep > 0, turns=turns, **state)
 
 
-def _ellipse(row: EllipseRow, start: np.ndarray, state: dict, where: str) -> EllipseArc:
+def _ellipse(row: EllipseRow, start: "np.ndarray", state: dict, where: str) -> "EllipseArc":
     from flowmc.motion.path import EllipseArc
 
     sweep = _check_direction(row, where)
@@ -109,7 +109,7 @@ def _ellipse(row: EllipseRow, start: np.ndarray, state: dict, where: str) -> Ell
     return EllipseArc(start - probe.start, probe.u_axis, probe.v_axis, t0, t0 + sweep, **state)
 
 
-def path_from_rows(rows, start=(0.0, 0.0, 0.0), feed: float = 100.0) -> Path:
+def path_from_rows(rows, start=(0.0, 0.0, 0.0), feed: float = 100.0) -> "Path":
     """Build a Path from table rows (LineRow/ArcRow/EllipseRow or dicts), starting at ``start``.
 
     Errors name the row (1-based), e.g. ``row 3: a cw arc needs end_angle < start_angle``.

@@ -1,9 +1,7 @@
-"""Device nodes: the machine's limits, pre-flight, card output, homing, and I/O, PWM and analog signals.
+"""Device nodes: the machine's limits, pre-flight, card output, homing, jogging, I/O now and waiting for an input.
 
-Signal nodes (Digital I/O, PWM, Analog/spindle) do not touch a device: they add events at times or
-at segment starts of a program, chained from node to node, for Card output to send with the program
-(or "I/O now" to set at once). With an untimed step stream, event times count ticks (the ``Steps``
-convention).
+The signal nodes that feed Card output and I/O now (Digital I/O, PWM, Analog/spindle) are in
+``flowmc.nodes.signals``.
 
 Nodes that drive a device (Card output, Home, Jog, I/O now) run in two phases: when the graph runs
 they only prepare a job (pre-flighted; nothing opens, nothing moves) and are *ready*; an explicit
@@ -12,25 +10,21 @@ Start (the editor's button, ``flowmc run``) hands the job to a ``JobRunner``. Th
 output), only Start needs it, and the simulated card carries on from the state that log ends in.
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 from dataclasses import replace
 from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions, check_spec
-from flowmc.devices.ranges import CARD_6050
-from flowmc.errors import DeviceError, NodeError
+from flowmc.errors import DeviceError
 from flowmc.motion.machine import Axis, Machine, default_machine
 from flowmc.registry import In, NodeType, Out, register
 
-if TYPE_CHECKING:  # numpy, the value types and the job machinery are imported when a node runs:
-    import numpy as np  # `flowmc validate` (params and ports only) stays light
-
+if TYPE_CHECKING:  # the backends, the job machinery and numpy are imported when a node runs:
+    from flowmc.devices.backends import DeviceOptions  # `flowmc validate` (params and ports only) stays light
     from flowmc.devices.jobs import Job
     from flowmc.devices.log import DeviceLog
-    from flowmc.motion.trajectory import Signal
 
 _MOTION_IN = In("motion", ("Trajectory", "Steps"), doc="The program: setpoints or a step stream")
 _MACHINE_IN = In("machine", "Machine", doc="Axis limits and period (default: the default machine)", default=None)
@@ -38,7 +32,6 @@ _SIGNALS_IN = In("signals", "Signal", doc="I/O events to send with the program",
 _AFTER_IN = In("after", "Log", doc="Run after this device log (the sim carries on from its end state)",
                default=None)
 _LOG_OUT = Out("log", "Log", doc="What the device did, per period")
-_SIGNALS_OUT = Out("signals", "Signal", doc="The incoming events plus these")
 
 
 class _Params(BaseModel):
@@ -55,6 +48,8 @@ class _DeviceParams(_Params):
     @field_validator("device")
     @classmethod
     def _known(cls, spec: str) -> str:
+        from flowmc.devices.backends import check_spec  # the backends list: when a graph names a device
+
         try:
             check_spec(spec)
         except DeviceError as err:
@@ -72,8 +67,10 @@ def _machine_for(machine: Machine | None, motion=None) -> Machine:
     return default_machine()
 
 
-def _options(params: _DeviceParams) -> DeviceOptions:
+def _options(params: _DeviceParams) -> "DeviceOptions":
     """The device's options from the node's params (the state to resume from comes at Start)."""
+    from flowmc.devices.backends import DeviceOptions, GrblOptions, SimOptions
+
     card = params if isinstance(params, CardOutputParams) else None  # only Card output drives a pen
     return DeviceOptions(
         sim=SimOptions(closed_loop=params.closed_loop, estop_input=params.estop_input or None, analog=params.analog,
@@ -81,7 +78,7 @@ def _options(params: _DeviceParams) -> DeviceOptions:
         grbl=GrblOptions(card.grbl_pen_down, card.grbl_pen_up) if card else GrblOptions())
 
 
-def _report(ctx, log: DeviceLog) -> None:
+def _report(ctx, log: "DeviceLog") -> None:
     for event in log.events:
         ctx.log(f"{event.kind} at t={event.t:.3f} s{' ' + event.axis if event.axis else ''}: {event.message}")
     if log.outcome != "done":
@@ -95,7 +92,7 @@ class _DeviceNode(NodeType):
     moves = True
     start_inputs = ("after",)
 
-    def start(self, ctx, job: Job, after: DeviceLog | None = None) -> dict:
+    def start(self, ctx, job: "Job", after: "DeviceLog | None" = None) -> dict:
         try:
             from flowmc.devices.jobs.prepare import start_job
 
@@ -162,6 +159,7 @@ class PreflightNode(NodeType):
     def run(self, ctx, params: PreflightParams, motion, signals=None, machine=None):
         machine = _machine_for(machine, motion)
         from flowmc.devices.preflight import preflight
+        from flowmc.devices.ranges import CARD_6050
 
         report = preflight(motion, machine, signals, ranges=CARD_6050.with_analog(params.analog))
         return {"report": report.table(machine)}
@@ -190,7 +188,7 @@ class CardOutput(_DeviceNode):
     inputs = (_MOTION_IN, _SIGNALS_IN, _MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def prepare(self, ctx, params: CardOutputParams, motion, signals=None, machine=None) -> Job:
+    def prepare(self, ctx, params: CardOutputParams, motion, signals=None, machine=None) -> "Job":
         machine = _machine_for(machine, motion)
         from flowmc.devices.jobs import SafeOutputs
         from flowmc.devices.jobs.prepare import program_job
@@ -218,7 +216,7 @@ class Home(_DeviceNode):
     inputs = (_MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def prepare(self, ctx, params: HomeParams, machine=None) -> Job:
+    def prepare(self, ctx, params: HomeParams, machine=None) -> "Job":
         axes = tuple(params.axes.replace(",", "").replace(" ", "").upper()) or None
         from flowmc.devices.jobs.prepare import home_job
 
@@ -242,148 +240,11 @@ class Jog(_DeviceNode):
     inputs = (_MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT,)
 
-    def prepare(self, ctx, params: JogParams, machine=None) -> Job:
+    def prepare(self, ctx, params: JogParams, machine=None) -> "Job":
         from flowmc.devices.jobs.prepare import jog_job
 
         return jog_job(params.device, _machine_for(machine), params.axis.strip().upper(), params.distance, params.speed,
                        _options(params), name=ctx.node_id)
-
-
-# ---------------------------------------------------------------- signals along a program
-
-class _At(_Params):
-    at: Annotated[float, Field(ge=0, description="Time (s), or segment number (1 is the program's first segment), "
-                                                  "as the node's 'at' says")]
-
-
-class BitChange(_At):
-    on: Annotated[bool, Field(description="Output on (closed) or off")]
-
-
-class DutyChange(_At):
-    duty: Annotated[float, Field(ge=0, le=100, description="PWM duty", json_schema_extra={"unit": "%"})]
-
-
-class ValueChange(_At):
-    value: Annotated[float, Field(description="Volts or rpm (signed: + cw, - ccw), as the node's mode says")]
-
-
-class _SignalParams(_Params):
-    at: Annotated[Literal["time", "segment"],
-                  Field(description="Changes happen at a time (s; ticks with an untimed step stream) or at "
-                                    "the start of a program segment (numbered from 1, as Measure path and "
-                                    "error messages count them)")] = "time"
-
-
-def _times(at: str, given: list[float], motion) -> np.ndarray:
-    """Times of the change points: as given, or the first setpoint of each segment (numbered from 1)."""
-    import numpy as np
-
-    from flowmc.motion.path import describe_segment
-    from flowmc.motion.trajectory import Steps, Trajectory
-
-    points = np.asarray(given, dtype=float)
-    if at == "time":
-        return points
-    if not isinstance(motion, (Trajectory, Steps)):
-        raise NodeError("changes at segments need the program: wire it to 'motion'")
-    seg = np.asarray(motion.segment)
-    dt = motion.period if isinstance(motion, Trajectory) else motion.tick or 1.0  # untimed steps: ticks
-    names = motion.segment_names
-    count = len(names) or (int(seg.max()) + 1 if len(seg) else 0)
-    times = []
-    for k in points:
-        if int(k) != k or not 1 <= k <= count:
-            raise NodeError(f"no such segment in the program; its segments are numbered 1 to {count}",
-                            where=f"segment {k:g}")
-        rows = np.flatnonzero(seg == int(k) - 1)
-        if not len(rows):
-            raise NodeError("this segment has no setpoints or steps in the program (it does not move)",
-                            where=describe_segment(int(k) - 1, names))
-        times.append(rows[0] * dt)
-    return np.array(times)
-
-
-def _chain(signals: Signal | None, t, kind, channel, value) -> Signal:
-    from flowmc.motion.trajectory import Signal
-
-    new = Signal(t, kind, channel, value)
-    return new if signals is None else signals.merged(new)
-
-
-class DigitalIOParams(_SignalParams):
-    channel: Annotated[int, Field(ge=1, le=8, description="Digital output 1-8")] = 1
-    changes: Annotated[list[BitChange], Field(description="When the output goes on or off (pen down/up, "
-                                                          "spindle run)")] = []
-
-
-@register
-class DigitalIO(NodeType):
-    type_id = "device.digital_io"
-    version = 2  # 2: segment numbers in "at" count from 1
-    title = "Digital I/O"
-    category = "Devices"
-    description = "Switch a digital output at times or segment starts along a program (pen up/down, relays)."
-    Params = DigitalIOParams
-    inputs = (In("motion", ("Trajectory", "Steps"), doc="The program (for changes at segments)", default=None),
-              In("signals", "Signal", doc="Events to add these to", default=None))
-    outputs = (_SIGNALS_OUT,)
-
-    def run(self, ctx, params: DigitalIOParams, motion=None, signals=None):
-        t = _times(params.at, [c.at for c in params.changes], motion)
-        n = len(t)
-        return {"signals": _chain(signals, t, ["dout"] * n, [params.channel] * n,
-                                  [float(c.on) for c in params.changes])}
-
-
-class PwmParams(_SignalParams):
-    frequency: Annotated[float, Field(ge=18, le=150_000, description="PWM frequency (the card: 18-150,000 Hz)",
-                                      json_schema_extra={"unit": "Hz"})] = 1000.0
-    changes: Annotated[list[DutyChange], Field(description="Duty changes (laser power)")] = []
-
-
-@register
-class Pwm(NodeType):
-    type_id = "device.pwm"
-    version = 2  # 2: segment numbers in "at" count from 1
-    title = "PWM"
-    category = "Devices"
-    description = "Set the PWM frequency at the start and its duty (laser power) at times or segment starts."
-    Params = PwmParams
-    inputs = DigitalIO.inputs
-    outputs = (_SIGNALS_OUT,)
-
-    def run(self, ctx, params: PwmParams, motion=None, signals=None):
-        import numpy as np
-
-        t = _times(params.at, [c.at for c in params.changes], motion)
-        n = len(t)
-        return {"signals": _chain(signals, np.concatenate([[0.0], t]), ["pwm_freq"] + ["pwm_duty"] * n,
-                                  [1] * (n + 1), [params.frequency] + [c.duty for c in params.changes])}
-
-
-class AnalogParams(_SignalParams):
-    mode: Annotated[Literal["volts", "rpm"], Field(description="DA volts (-10..10 V) or spindle speed "
-                                                               "(0-24,000 rpm on 0-10 V)")] = "rpm"
-    changes: Annotated[list[ValueChange], Field(description="Value changes (spindle on: rpm > 0, off: 0)")] = []
-
-
-@register
-class Analog(NodeType):
-    type_id = "device.analog"
-    version = 2  # 2: segment numbers in "at" count from 1
-    title = "Analog/spindle"
-    category = "Devices"
-    description = "Set the DA voltage or the spindle speed (with its run and direction outputs) along a program."
-    Params = AnalogParams
-    inputs = DigitalIO.inputs
-    outputs = (_SIGNALS_OUT,)
-
-    def run(self, ctx, params: AnalogParams, motion=None, signals=None):
-        t = _times(params.at, [c.at for c in params.changes], motion)
-        kind = "da" if params.mode == "volts" else "spindle_rpm"
-        n = len(t)
-        return {"signals": _chain(signals, t, [kind] * n, [1] * n, [c.value for c in params.changes])}
 
 
 # ---------------------------------------------------------------- I/O now
@@ -398,7 +259,7 @@ class IONow(_DeviceNode):
     inputs = (In("signals", "Signal", doc="Outputs to set", default=None), _MACHINE_IN, _AFTER_IN)
     outputs = (_LOG_OUT, Out("inputs", "Number", doc="Input levels as a bit mask: bit n-1 is input n"))
 
-    def prepare(self, ctx, params: _DeviceParams, signals=None, machine=None) -> Job:
+    def prepare(self, ctx, params: _DeviceParams, signals=None, machine=None) -> "Job":
         from flowmc.devices.jobs.prepare import io_job
         from flowmc.motion.trajectory import Signal
 
@@ -436,7 +297,7 @@ class WaitInput(_DeviceNode):
     outputs = (_LOG_OUT, Out("waited", "Number", doc="Seconds waited (s)"),
                Out("came", "Bool", doc="Whether the input came before the timeout"))
 
-    def prepare(self, ctx, params: WaitInputParams, machine=None) -> Job:
+    def prepare(self, ctx, params: WaitInputParams, machine=None) -> "Job":
         from flowmc.devices.jobs.prepare import wait_job
 
         options = _options(params)
@@ -448,6 +309,6 @@ class WaitInput(_DeviceNode):
         ctx.log(f"ready: {job.describe()}, at most {params.timeout:g} s")
         return job
 
-    def start(self, ctx, job: Job, after: DeviceLog | None = None) -> dict:
+    def start(self, ctx, job: "Job", after: "DeviceLog | None" = None) -> dict:
         outputs = super().start(ctx, job, after)
         return {**outputs, "came": bool(outputs["came"])}

@@ -1,7 +1,7 @@
 """Measure a path: per-segment lengths and chords, set against an expected table (the thesis's Table 6-1)."""
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field

@@ -1,7 +1,7 @@
 """Path sources that need no file format: the thesis's segment table, polylines, and NURBS curves."""
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field

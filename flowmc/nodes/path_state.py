@@ -4,8 +4,8 @@ Planners turn this state into timed signals with one rule (flowmc.motion.signals
 pen set here reaches every device the same way.
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field

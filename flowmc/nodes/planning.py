@@ -1,10 +1,11 @@
 """Feed-planning nodes: the look-ahead planner, the stop-and-go baseline, and trajectory metrics.
 
 The work is in flowmc.motion.lookahead and flowmc.motion.metrics; these adapt ports and params, and
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 import the algorithms when they run (validating a graph needs only params and ports).
 """
 
-from __future__ import annotations
 
 from typing import TYPE_CHECKING, Annotated, Literal
 
@@ -47,7 +48,7 @@ class LookaheadPlanner(NodeType):
     inputs = (_PATH_IN, _MACHINE_IN)
     outputs = (_TRAJ_OUT, _CYCLE_OUT)
 
-    def run(self, ctx, params: LookaheadParams, path: Path, machine: Machine | None = None):
+    def run(self, ctx, params: LookaheadParams, path: "Path", machine: Machine | None = None):
         from flowmc.motion.lookahead import plan_lookahead
 
         plan = plan_lookahead(path, machine or default_machine(), rule=params.rule, tolerance=params.tolerance,
@@ -74,7 +75,7 @@ class StopAndGoPlanner(NodeType):
     inputs = (_PATH_IN, _MACHINE_IN)
     outputs = (_TRAJ_OUT, _CYCLE_OUT)
 
-    def run(self, ctx, params: StopAndGoParams, path: Path, machine: Machine | None = None):
+    def run(self, ctx, params: StopAndGoParams, path: "Path", machine: Machine | None = None):
         from flowmc.motion.lookahead import plan_stop_and_go
 
         plan = plan_stop_and_go(path, machine or default_machine(), profile=params.profile)
@@ -105,7 +106,7 @@ class TrajectoryMetrics(NodeType):
                                                "corners included"),
                Out("contour_error", "Number", doc="Largest distance of a chord from the path (mm)"))
 
-    def run(self, ctx, params: MetricsParams, trajectory: Trajectory, path: Path, machine: Machine | None = None):
+    def run(self, ctx, params: MetricsParams, trajectory: "Trajectory", path: "Path", machine: Machine | None = None):
         from flowmc.motion.metrics import trajectory_report
         from flowmc.motion.table import Table
 

@@ -76,7 +76,7 @@ def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph,
                      change="use fewer levels of sub-graphs")
     except FlowmcError as exc:
         raise fail("budget", str(exc)) from None
-    key = ("subgraph", path, site.root)
+    key = _memo_key(path, site.root)
     outcome = memo.get(key) if memo is not None else None
     if outcome is None:
         outcome = _bind_outcome(path, site, shown, plan_graph)
@@ -91,15 +91,22 @@ def bind_file(path: Path, site: Site, node_id: str, plan_graph: Callable[[Graph,
     return outcome
 
 
+def _memo_key(path: Path, root: Path) -> tuple[str, Path, Path]:
+    """What a file bound under ``root`` came to, in a planning pass's memo."""
+    return ("subgraph", path, root)
+
+
 def _nested(message: str, keep: int = 600) -> str:
     """A message from deep inside nested sub-graphs, its middle cut: each level adds its name."""
     return message if len(message) <= keep else f"{message[: keep // 2]} ... {message[-keep // 2:]}"
 
 
-def _bind_outcome(path: Path, site: Site, shown: str, plan_graph: Callable[[Graph, Site], Plan]) -> Any:
-    """The Binding of the file at ``path``, or why it cannot be bound (not yet naming the node)."""
+def _bind_outcome(path: Path, site: Site, shown: str, plan_graph: Callable[[Graph, Site], Plan],
+                  read: tuple[Graph, str] | None = None) -> Any:
+    """The Binding of the file at ``path`` (``read``: the file as ``_read`` gave it already), or why it
+    cannot be bound (not yet naming the node)."""
     try:
-        graph, digest = _read(path)
+        graph, digest = read or _read(path)
     except GraphError as exc:
         detail = "; ".join(i.message for i in exc.issues) if exc.issues else exc.message
         return ("subgraph", f"sub-graph {shown}: {detail}")
@@ -185,9 +192,12 @@ class LibraryGraph(NodeType):
     Params = NoParams
     file_path: Path
     lib_dir: Path
+    outcome: Any = None  # what binding the file came to when the type was built (its ports come from it)
 
     @classmethod
     def bind_graph(cls, params: BaseModel, at: BindContext) -> Binding:
+        if cls.outcome is not None:  # the type is rebuilt when the file or the registry changes: still valid
+            at.memo.setdefault(_memo_key(cls.file_path, cls.lib_dir), cls.outcome)
         binding = bind_file(cls.file_path, Site(cls.lib_dir, cls.lib_dir, at.site.chain), at.node_id, at.plan, at.memo)
         data = tuple(p for p in binding.ports.inputs if p.name not in cls.Params.model_fields)
         return replace(binding, ports=Ports(data, binding.ports.outputs))
@@ -218,6 +228,13 @@ def _split_scalars(ports: Ports, stem: str) -> tuple[type[BaseModel], Ports]:
 
 # ---------------------------------------------------------------- library folders
 
+def _others_unchanged(cls: type[LibraryGraph]) -> bool:
+    """Whether the other files a library type's graph bound (sub-graphs, library graphs it uses) are as
+    they were when the type was built: its ports and its binding came from them."""
+    deps = cls.outcome.deps if cls.outcome is not None else {}
+    return all(fingerprint(dep) == digest for dep, digest in deps.items() if dep != cls.file_path)
+
+
 class GraphLibrary:
     """``lib.<stem>`` types for the graph files in ``folders`` and in a ``lib/`` beside the graph.
 
@@ -246,20 +263,24 @@ class GraphLibrary:
         """The ``lib.<stem>`` type for a file, rebuilt when the file or the registry changes."""
         stat = fingerprint(path, budget.cap("json_bytes"))
         cached = self._cache.get(path)
-        if cached is not None and cached[:2] == (registry.generation, stat):
+        if cached is not None and cached[:2] == (registry.generation, stat) and _others_unchanged(cached[2]):
             return cached[2]
         stem = path.name[: -len(SUFFIX)]
         title, description, ports = stem, f"Library graph {stem}", Ports((), ())
         params: type[BaseModel] = NoParams
+        outcome = None
         building = path in self._building  # library graphs using each other: binding reports the recursion
         self._building.add(path)
         try:
-            graph, _ = _read(path)
-            title = graph.title or stem
-            description = (graph.description.strip().splitlines() or [description])[0]
-            if not building:
+            read = _read(path)
+            title = read[0].title or stem
+            description = (read[0].description.strip().splitlines() or [description])[0]
+            if not building:  # the file is read and planned once: the first use binds from this outcome
                 plan_graph = lambda g, s: make_plan(g, s, registry)  # noqa: E731
-                params, ports = _split_scalars(bind_file(path, Site(lib_dir, lib_dir), "lib", plan_graph).ports, stem)
+                outcome = _bind_outcome(path, Site(lib_dir, lib_dir), path.name, plan_graph, read)
+                memo = {_memo_key(path, lib_dir): outcome}
+                params, ports = _split_scalars(bind_file(path, Site(lib_dir, lib_dir), "lib", plan_graph, memo).ports,
+                                               stem)
         except GraphError:
             pass  # described without ports; using it reports the problem on the node
         finally:
@@ -267,7 +288,7 @@ class GraphLibrary:
                 self._building.discard(path)
         attrs = {"type_id": f"lib.{stem}", "title": title, "description": description, "Params": params,
                  "inputs": ports.inputs, "outputs": ports.outputs, "file_path": path, "lib_dir": lib_dir,
-                 "__module__": __name__}
+                 "outcome": outcome if isinstance(outcome, Binding) else None, "__module__": __name__}
         cls = type(f"Lib_{stem}", (LibraryGraph,), attrs)
         if not building:
             self._cache[path] = (registry.generation, stat, cls)

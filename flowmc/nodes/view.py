@@ -7,8 +7,8 @@ run --snapshot DIR`` writes a PNG of each view (``flowmc.runtime.views``). Graph
 editor's old behaviour (the view shows the run's most downstream values).
 """
 
-from __future__ import annotations
-
+# No ``from __future__ import annotations``: pydantic would compile every model field's annotation from
+# its text when a cold ``flowmc validate`` builds the models (docs/architecture.md).
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field

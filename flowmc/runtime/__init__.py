@@ -11,13 +11,33 @@ Public API (the CLI and the editor use only this)::
     started = rt.start(result, Start(options={"pace": "realtime"}, on_job=...))   # the explicit Start
 """
 
-from flowmc.graph import Issue
-from flowmc.runtime.binding import BindContext, Binding, GraphBinder
-from flowmc.runtime.context import NodeContext, Site, resolve_inside
-from flowmc.runtime.events import EVENT_KINDS, Event, EventBus
-from flowmc.runtime.executor import NodeResult, RunResult, Runtime, summarize, value_matches
-from flowmc.runtime.schedule import Plan
-from flowmc.runtime.start import Start
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+# Names are imported on first use, as ``flowmc`` does: the modules that plan a graph (schedule, validate,
+# binding, context) are imported without the executor, events and jobs, which ``flowmc validate`` and
+# the node modules holding graphs never need.
+_LAZY = {
+    "Runtime": "flowmc.runtime.executor",
+    "RunResult": "flowmc.runtime.executor",
+    "NodeResult": "flowmc.runtime.executor",
+    "summarize": "flowmc.runtime.executor",
+    "value_matches": "flowmc.runtime.validate",
+    "Plan": "flowmc.runtime.schedule",
+    "Start": "flowmc.runtime.start",
+    "Issue": "flowmc.graph",
+    "Event": "flowmc.runtime.events",
+    "EVENT_KINDS": "flowmc.runtime.events",
+    "EventBus": "flowmc.runtime.events",
+    "NodeContext": "flowmc.runtime.context",
+    "Site": "flowmc.runtime.context",
+    "resolve_inside": "flowmc.runtime.context",
+    "Binding": "flowmc.runtime.binding",
+    "BindContext": "flowmc.runtime.binding",
+    "GraphBinder": "flowmc.runtime.binding",
+}
 
 __all__ = [
     "Runtime",
@@ -38,3 +58,16 @@ __all__ = [
     "summarize",
     "value_matches",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'flowmc.runtime' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import flowmc
 from core_helpers import run_cli
@@ -155,3 +158,52 @@ def test_every_help_text_speaks_to_users_not_about_the_code():
                 problems.append(f"{name}: {'/'.join(action.option_strings) or action.dest} has no help")
     assert subparsers.choices.keys() >= {"run", "validate", "nodes", "schema", "serve", "compare"}
     assert problems == []
+
+
+def test_a_command_builds_only_its_own_arguments_and_helps_alike():
+    """``flowmc validate`` builds validate's arguments, not run's or sweep's (a cold start pays for each
+    ``add_argument``); every command's help, and the list of commands, read as with the whole parser."""
+    import argparse
+
+    from flowmc.cli import build_parser
+
+    def commands(parser):
+        return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+
+    whole = build_parser()
+    for name, sub in commands(whole).items():
+        only = build_parser(name)
+        assert only.format_help() == whole.format_help()
+        assert commands(only)[name].format_help() == sub.format_help()
+        others = {n: len(p._actions) for n, p in commands(only).items() if n != name}
+        assert others == dict.fromkeys(others, 1)  # -h alone
+
+
+def test_the_command_loads_pydantic_plugins_only_when_asked(tmp_path):
+    """A cold ``flowmc`` skips pydantic's scan of every installed distribution for plugins; setting
+    PYDANTIC_DISABLE_PLUGINS (empty: none disabled) brings them back."""
+    from core_helpers import REPO
+
+    (tmp_path / "spyplugin.py").write_text(
+        "import sys\n"
+        "class Spy:\n"
+        "    def new_schema_validator(self, *args, **kwargs):\n"
+        "        print('pydantic plugin called', file=sys.stderr)\n"
+        "        return None, None, None\n"
+        "plugin = Spy()\n")
+    info = tmp_path / "spyplugin-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: spyplugin\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[pydantic]\nspy = spyplugin:plugin\n")
+    graph = REPO / "graphs" / "thesis_3axis.flowmc.json"
+    env = {k: v for k, v in os.environ.items() if k != "PYDANTIC_DISABLE_PLUGINS"}
+    env["PYTHONPATH"] = str(tmp_path)
+    runs = {}
+    for setting in (None, ""):
+        if setting is not None:
+            env["PYDANTIC_DISABLE_PLUGINS"] = setting
+        proc = subprocess.run([sys.executable, "-m", "flowmc", "validate", str(graph)], env=env, cwd=tmp_path,
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        runs[setting] = "pydantic plugin called" in proc.stderr
+    assert runs == {None: False, "": True}

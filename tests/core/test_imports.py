@@ -46,8 +46,7 @@ import sys
 from flowmc.cli import main
 code = main(["validate", sys.argv[1]])
 heavy = ("numpy", "flowmc.motion.path", "scipy", "skimage", "viser", "networkx", "PIL", "serial", "dask",
-         "flowmc.ui", "flowmc.sweep",
-         "flowmc.devices.sim", "flowmc.devices.grbl", "flowmc.devices.linuxcnc", "flowmc.devices.jobs",
+         "flowmc.ui", "flowmc.sweep", "flowmc.devices", "flowmc.runtime.executor", "flowmc.nodes.signals",
          "flowmc.motion.gcode", "flowmc.nodes.gcode", "flowmc.nodes.basic")
 print(code, sorted({m for m in sys.modules for h in heavy if m == h or m.startswith(h + ".")}))
 """
@@ -56,7 +55,8 @@ print(code, sorted({m for m in sys.modules for h in heavy if m == h or m.startsw
 def test_validate_starts_light(tmp_path):
     """Cold start (benchmarks/cold_start.py times it): ``flowmc validate`` imports only the node modules
     of the types the graph uses, and nothing heavy (numpy, the path types, scipy, scikit-image, viser, networkx,
-    device backends): validating reads params and ports, and node modules import their algorithms when they run."""
+    device backends, the executor, the signal nodes beside Card output): validating reads params and ports, and
+    node modules import their algorithms when they run."""
     from core_helpers import REPO
 
     graph = REPO / "graphs" / "thesis_3axis.flowmc.json"
@@ -102,6 +102,6 @@ def test_validate_builds_only_the_models_it_uses():
     code, built = proc.stdout.strip().splitlines()[-1].split(" ", 1)
     assert code == "0"
     assert "flowmc.graph.Graph" in built and "flowmc.nodes.devices.HomeParams" in built
-    for unused in ("flowmc.nodes.devices.JogParams", "flowmc.nodes.devices.PwmParams",
+    for unused in ("flowmc.nodes.devices.JogParams", "flowmc.nodes.devices.WaitInputParams",
                    "flowmc.nodes.devices.PreflightParams", "flowmc.nodes.planning.StopAndGoParams"):
         assert unused not in built

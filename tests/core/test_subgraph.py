@@ -222,3 +222,33 @@ def test_library_graph_uses_its_siblings(registry, tmp_path):
     g.output("y", "Number", y.y)
     g.save(tmp_path / "lib" / "quad.flowmc.json")
     assert flowmc.run(_user(tmp_path, node_type="lib.quad"), registry=registry).outputs == {"out": 16.0}
+
+
+def test_a_library_graph_is_read_and_planned_once_per_validation(registry, tmp_path, monkeypatch):
+    """Building the lib type binds its file, and the node using it binds from that (a cold `flowmc validate`
+    read each library graph three times and planned it twice)."""
+    import flowmc.nodes.subgraph as subgraph
+
+    reads: list[str] = []
+    read = subgraph._read
+    monkeypatch.setattr(subgraph, "_read", lambda path: reads.append(path.name) or read(path))
+    (tmp_path / "lib").mkdir()
+    _double(tmp_path / "lib" / "twice.flowmc.json")
+    assert flowmc.validate(_user(tmp_path, node_type="lib.twice"), registry=registry) == []
+    assert reads == ["twice.flowmc.json"]
+
+
+def test_a_library_type_follows_the_library_graphs_it_uses(registry, tmp_path):
+    (tmp_path / "lib").mkdir()
+    _double(tmp_path / "lib" / "double.flowmc.json")
+    g = flowmc.GraphBuilder(title="Quad")
+    x = g.add("lib.double", id="first")
+    y = g.add("lib.double", id="second")
+    g.wire(x.y, y.x)
+    g.input("x", "Number", x.x)
+    g.output("y", "Number", y.y)
+    g.save(tmp_path / "lib" / "quad.flowmc.json")
+    user = _user(tmp_path, node_type="lib.quad")
+    assert flowmc.run(user, registry=registry).outputs == {"out": 16.0}
+    _double(tmp_path / "lib" / "double.flowmc.json", factor=3.0)  # quad's own file is unchanged
+    assert flowmc.run(user, registry=registry).outputs == {"out": 36.0}
