@@ -37,7 +37,7 @@ from flowmc.motion.curve import PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_length_at, frame, speed_at
 
-__all__ = ["retime_curvature_bound", "within_limits"]
+__all__ = ["retime_curvature_bound"]
 
 _JERK_SHARE = 0.96  # the programs aim at this share of jmax at their points (the samples are checked against 1)
 _ACCEL_SHARE = 0.999
@@ -46,7 +46,9 @@ _FINE, _FINE_MAX = 8, 512  # constant-acceleration steps per piece when sampling
 _STEP_PERIODS = 2.0  # control points about this many sampling periods' travel apart
 _ROUNDS = 3
 _TRUST = 0.5  # each round keeps u within this share of the last one
-_P3_BOUND = 0.5  # a stretch is retimed where |P3_i| v^3 is over this share of jmax on most of its samples
+_P3_BOUND, _BOUND_SHARE = 0.5, 0.1  # a stretch is retimed where |P3_i| v^3 is over _P3_BOUND of jmax on at
+# least _BOUND_SHARE of its samples (the time law's caps are the smallest within the filter's reach, so a few
+# such points hold the speed of the stretch around them)
 _MIN_SAMPLES = 50
 _SETTLED = 0.5  # the retimed part runs where the speed is over this share of the stretch's median
 _END_FIT = 3  # samples each side of a stretch's ends the boundary state (u, u', u'') is fitted on
@@ -56,7 +58,8 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
                            period: float) -> tuple[np.ndarray, np.ndarray] | None:
     """Arc length and dwell segment (-1 elsewhere) at t = kT of ``law``'s motion with every stretch where the
     curvature-change term holds the speed retimed (module docstring); None if no stretch is, or none gains.
-    The caller checks the samples (jerk, acceleration, velocity) before using them."""
+    Every sample keeps each axis's velocity, acceleration and jerk (finite differences) within its limit:
+    a stretch whose samples would not is left as planned."""
     ph = _phases(law)
     total = float(ph.start[-1] + ph.dur[-1]) + law.window
     n = max(1, math.ceil(total / period - 1e-9))
@@ -77,7 +80,7 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
             _, _, p3, _ = frame(curve, u, curve.interval_at(u))
             term = np.max(np.abs(p3[:, cols]) / lim.jmax[cols], axis=1) * v[k0:k1 + 1] ** 3
             bound = np.flatnonzero(term > _P3_BOUND)
-            if len(bound) < 0.5 * len(term):
+            if len(bound) < _BOUND_SHARE * len(term):
                 continue
             # starting and ending where the term holds the speed keeps the joins off stretches the plan runs
             # at the jerk limit with its own (tangential) motion
@@ -87,9 +90,21 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
             win = _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period)
             if win is not None and win[1] < (k1 - k0) * period * (1.0 - 1e-6):
                 windows.append((k0, k1, *win))
-    if not windows:
-        return None
-    return _stitch(law, ph, windows, total, period)
+    # a window whose samples (or the joins to the plan's) break a limit is left as planned
+    while windows:
+        s_new, seg_new, spans = _stitch(law, ph, windows, total, period)
+        u = law.u_at(s_new, curve)
+        u[-1] = law.u[-1]
+        bad = _over_limits(curve.points(u)[:, cols], lim)
+        if not len(bad):
+            return s_new, seg_new
+        t_bad = bad * period
+        keep = [w for w, (a, b) in zip(windows, spans)
+                if not np.any((t_bad >= a - 4 * period) & (t_bad <= b + period))]
+        if len(keep) == len(windows):
+            return None
+        windows = keep
+    return None
 
 
 def _settled(v: np.ndarray) -> list[tuple[int, int]]:
@@ -227,16 +242,14 @@ def _stitch(law, ph, windows, total, period):
         at = np.flatnonzero(inside & (w == i))
         s[at] = windows[i][2].s(ts[at] - new_start[i])
         seg[at] = -1
-    return s, seg
+    return s, seg, list(zip(new_start, new_end))
 
 
-def within_limits(positions: np.ndarray, lim: PathLimits) -> bool:
-    """Setpoints (the machine's columns) keep every axis's sampled velocity, acceleration and jerk within its
-    limit (finite differences, as a device sees them)."""
+def _over_limits(positions: np.ndarray, lim: PathLimits) -> np.ndarray:
+    """First samples of every finite difference (velocity, acceleration, jerk) over an axis's limit."""
     cols = list(lim.cols)
-    d = positions
+    d, over = positions, []
     for limit in (lim.vmax, lim.amax, lim.jmax):
         d = np.diff(d, axis=0) / lim.period
-        if len(d) and np.any(np.abs(d) > limit[cols] * (1.0 + 1e-9)):
-            return False
-    return True
+        over.append(np.flatnonzero(np.any(np.abs(d) > limit[cols] * (1.0 + 1e-9), axis=1)))
+    return np.unique(np.concatenate(over))

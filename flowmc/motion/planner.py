@@ -8,8 +8,8 @@ t = kT. The tool is on the smoothed curve at every setpoint; every setpoint is t
 programmed segment it is on. A jerk-limited law is first planned without mending the swings of its
 acceleration (timelaw's ``mend_swings``: a bound that stacks every jerk term at its worst), and planned again
 with them mended only if its sampled setpoints break a jerk limit. Where the curvature-change term of the
-jerk holds the speed, the samples are then retimed by flowmc.motion.jerk_retime, and kept if faster and
-within every per-axis limit.
+jerk holds the speed, the samples are then retimed by flowmc.motion.jerk_retime (within every per-axis
+limit, from the samples), and kept if faster.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from flowmc.motion.path import Path
 from flowmc.motion.pieces import _check_axes
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
-from flowmc.motion.jerk_retime import retime_curvature_bound, within_limits
+from flowmc.motion.jerk_retime import retime_curvature_bound
 from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law, sampled_jerk
 from flowmc.motion.trajectory import Trajectory
 
@@ -93,7 +93,7 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
             r_u[-1] = law.u[-1]
             r_pos = curve.points(r_u)
             r_pos[0], r_pos[-1] = path.start, path.end
-            if len(r_u) < len(u) and within_limits(r_pos[:, list(lim.cols)], lim):
+            if len(r_u) < len(u):
                 u, dwell_seg, pos = r_u, retimed[1], r_pos
     tags = np.where(dwell_seg >= 0, dwell_seg, curve.segment_at(u))
     tags = np.maximum.accumulate(tags)
