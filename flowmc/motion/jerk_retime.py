@@ -39,12 +39,12 @@ from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_leng
 
 __all__ = ["retime_curvature_bound"]
 
-_JERK_SHARE = 0.96  # the programs aim at this share of jmax at their points (the samples are checked against 1)
+_JERK_SHARE = 0.985  # the programs aim at this share of jmax at their points (the samples are checked against 1)
 _ACCEL_SHARE = 0.999
 _SUB = np.arange(4) / 3  # where in each piece of the spline the constraints are held
 _FINE, _FINE_MAX = 8, 512  # constant-acceleration steps per piece when sampling the result
 _STEP_PERIODS = 2.0  # control points about this many sampling periods' travel apart
-_ROUNDS = 3
+_ROUNDS = 2
 _TRUST = 0.5  # each round keeps u within this share of the last one
 _P3_BOUND, _BOUND_SHARE = 0.5, 0.1  # a stretch is retimed where |P3_i| v^3 is over _P3_BOUND of jmax on at
 # least _BOUND_SHARE of its samples (the time law's caps are the smallest within the filter's reach, so a few
@@ -175,10 +175,16 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
         vel = np.min([np.where(tan[:, i] != 0, (_ACCEL_SHARE * lim.vmax[i] / np.abs(tan[:, i])) ** 2, np.inf)
                       for i in axes], axis=0)
     vel = np.minimum(vel, feed ** 2)
-    for _ in range(_ROUNDS):
+    best, best_time = c, np.inf
+    for _ in range(_ROUNDS + 1):
         up = (basis * c[cols3]).sum(axis=1)
         if np.any(up <= 0):
-            return None
+            break
+        took = h * float(np.sum(weight / np.sqrt(up)))  # the linearised time is not the time: keep the fastest
+        if took < best_time:
+            best, best_time = c, took
+        if _ == _ROUNDS:
+            break
         blocks, rhs = [], []
         for i in axes:
             jmax = _JERK_SHARE * lim.jmax[i]
@@ -207,6 +213,7 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
         if res.status != 0:
             break
         c = np.maximum(res.x, lo_c)
+    c = best
     # each step at most an eighth of a period long (an acceleration step of a longer one would show in the samples)
     slow = np.sqrt(np.maximum(np.minimum(np.minimum(c[:-2], c[1:-1]), c[2:]), 1e-300))
     steps = np.clip(np.ceil(8.0 * h / (period * slow)), _FINE, _FINE_MAX).astype(int)
