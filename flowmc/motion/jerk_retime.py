@@ -45,6 +45,7 @@ _SUB = np.arange(4) / 3  # where in each piece of the spline the constraints are
 _FINE, _FINE_MAX = 8, 512  # constant-acceleration steps per piece when sampling the result
 _STEP_PERIODS = 2.0  # control points about this many sampling periods' travel apart
 _ROUNDS = 2
+_CHUNK = 800  # control points per linear program
 _TRUST = 0.5  # each round keeps u within this share of the last one
 _P3_BOUND, _BOUND_SHARE = 0.5, 0.1  # a stretch is retimed where |P3_i| v^3 is over _P3_BOUND of jmax on at
 # least _BOUND_SHARE of its samples (the time law's caps are the smallest within the filter's reach, so a few
@@ -176,14 +177,14 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
                       for i in axes], axis=0)
     vel = np.minimum(vel, feed ** 2)
     best, best_time = c, np.inf
-    for _ in range(_ROUNDS + 1):
+    for rnd in range(_ROUNDS + 1):
         up = (basis * c[cols3]).sum(axis=1)
         if np.any(up <= 0):
             break
         took = h * float(np.sum(weight / np.sqrt(up)))  # the linearised time is not the time: keep the fastest
         if took < best_time:
             best, best_time = c, took
-        if _ == _ROUNDS:
+        if rnd == _ROUNDS:
             break
         blocks, rhs = [], []
         for i in axes:
@@ -201,18 +202,33 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
         vals = np.concatenate([blk[where] for blk, _, where in blocks])
         b = np.concatenate([np.broadcast_to(r, len(x))[where] for _, r, where in blocks])
         cols_all = np.concatenate([cols3[where] for _, _, where in blocks])
-        b = np.maximum(b, (vals * c[cols_all]).sum(axis=1))  # never worse than the start (it may be a hair over)
-        rows = np.repeat(np.arange(len(vals)), 3)
-        a_ub = sparse.csr_matrix((vals.ravel(), (rows, cols_all.ravel())), shape=(len(vals), m))
         obj = np.zeros(m)
         np.add.at(obj, cols3.ravel(), (-0.5 * up ** -1.5 * weight)[:, None].repeat(3, axis=1).ravel()
                   * basis.ravel())
         lo, hi = np.maximum(c * (1.0 - _TRUST), lo_c), c * (1.0 + _TRUST)
         lo[fixed] = hi[fixed] = c[fixed]
-        res = linprog(obj, A_ub=a_ub, b_ub=b, bounds=np.c_[lo, hi], method="highs-ds")
-        if res.status != 0:
-            break
-        c = np.maximum(res.x, lo_c)
+        # one program per chunk of control points, the others held (a program's cost grows faster than its
+        # size); the chunks' joins move by half a chunk every round
+        order = np.argsort(cols_all[:, 0], kind="stable")
+        vals, b, cols_all = vals[order], b[order], cols_all[order]
+        first = cols_all[:, 0]
+        shift = (_CHUNK // 2) * (rnd % 2)
+        for a in range(-shift, m, _CHUNK):
+            a, z = max(a, 0), min(a + _CHUNK, m)
+            if z <= a:
+                continue
+            r0, r1 = np.searchsorted(first, a - 2), np.searchsorted(first, z)
+            v_, c_ = vals[r0:r1], cols_all[r0:r1]
+            free = (c_ >= a) & (c_ < z)
+            held = np.where(free, 0.0, v_ * c[c_]).sum(axis=1)
+            # never worse than the current profile (it may be a hair over where it was interpolated)
+            rhs_ = np.maximum(b[r0:r1], (v_ * c[c_]).sum(axis=1)) - held
+            rr, cc = np.nonzero(free)
+            a_ub = sparse.csr_matrix((v_[rr, cc], (rr, c_[rr, cc] - a)), shape=(r1 - r0, z - a))
+            res = linprog(obj[a:z], A_ub=a_ub, b_ub=rhs_, bounds=np.c_[lo[a:z], hi[a:z]], method="highs-ds")
+            if res.status == 0:
+                c = c.copy()
+                c[a:z] = np.maximum(res.x, lo_c[a:z])
     c = best
     # each step at most an eighth of a period long (an acceleration step of a longer one would show in the samples)
     slow = np.sqrt(np.maximum(np.minimum(np.minimum(c[:-2], c[1:-1]), c[2:]), 1e-300))
