@@ -42,9 +42,12 @@ def peaks(positions: np.ndarray, period: float) -> tuple[float, float, float]:
     return tuple(float(np.abs(np.diff(positions, k, axis=0)).max()) / period**k for k in (1, 2, 3))
 
 
-def test_a_curvature_bound_stretch_is_retimed_faster_within_every_per_axis_limit():
+def test_a_curvature_bound_stretch_is_retimed_faster_within_every_per_axis_limit(monkeypatch):
     # 343 lines 0.03 mm long: the time law holds the speed so that |P3_i| v^3 fits alone, point by point
-    # (2.83 s); planned jointly along the curve, the tangential terms cancel it and the plan takes 2.50 s
+    # (2.83 s); planned jointly along the curve, the tangential terms cancel it and the plan takes 2.50 s.
+    # Its stretches have |P3_i| v^3 over half of jmax on 10-28 % of their samples, flowsnake's on over half:
+    # the gate is lowered to a tenth here to keep the test small
+    monkeypatch.setattr(jerk_retime, "_BOUND_SHARE", 0.1)
     machine = cam_machine()
     plan = plan_smooth(gosper(3, 0.03), machine, tolerance=0.05, profile="scurve")
     law_alone, _ = sample_time_law(plan.law, plan.smoothed.curve, machine.period)
@@ -62,6 +65,7 @@ def test_a_stretch_whose_samples_would_break_a_limit_is_left_as_planned(monkeypa
     # programs aiming at 1.5 x jmax give stretches whose samples break the jerk limit: those are dropped,
     # and what is kept (if anything) still holds every limit
     machine = cam_machine()
+    monkeypatch.setattr(jerk_retime, "_BOUND_SHARE", 0.1)
     monkeypatch.setattr(jerk_retime, "_JERK_SHARE", 1.5)
     plan = plan_smooth(gosper(3, 0.03), machine, tolerance=0.05, profile="scurve")
     v, a, j = peaks(plan.trajectory.positions, machine.period)
