@@ -186,7 +186,7 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
             best, best_time = c, took
         if rnd == _ROUNDS:
             break
-        blocks, rhs = [], []
+        blocks = []
         for i in axes:
             jmax = _JERK_SHARE * lim.jmax[i]
             lin = 0.5 * jmax * up ** -1.5

@@ -20,13 +20,13 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PlanningError
+from flowmc.motion.jerk_retime import retime_curvature_bound
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.pieces import _check_axes
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
-from flowmc.motion.jerk_retime import retime_curvature_bound
 from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law, sampled_jerk
 from flowmc.motion.trajectory import Trajectory
 
@@ -39,7 +39,8 @@ PROFILES = ("trapezoid", "scurve")
 class SmoothPlan:
     """A planned program: setpoints, the curve parameter u of each, and how it was smoothed and timed.
 
-    ``corner_times`` is empty: every corner is smoothed (or stopped at), none is passed sharply.
+    ``corner_times`` is empty: every corner is smoothed (or stopped at), none is passed sharply. ``law`` is
+    the time law the setpoints come from; where flowmc.motion.jerk_retime retimed a stretch, they run faster.
     """
 
     trajectory: Trajectory
