@@ -61,6 +61,12 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
     curvature-change term holds the speed retimed (module docstring); None if no stretch is, or none gains.
     Every sample keeps each axis's velocity, acceleration and jerk (finite differences) within its limit:
     a stretch whose samples would not is left as planned."""
+    cols = list(lim.cols)
+    # first, on the time law's own grid (far fewer points than samples): does the term hold the speed anywhere?
+    _, _, p3, _ = frame(curve, law.u, curve.interval_at(law.u))
+    term = np.max(np.abs(p3[:, cols]) / lim.jmax[cols], axis=1) * np.maximum(law.y, 0.0) ** 1.5
+    if not np.any(term > _P3_BOUND):
+        return None
     ph = _phases(law)
     total = float(ph.start[-1] + ph.dur[-1]) + law.window
     n = max(1, math.ceil(total / period - 1e-9))
@@ -68,7 +74,6 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
     ts[-1] = total
     s, seg = arc_length_at(law, ph, ts)
     v = speed_at(law, ph, ts)
-    cols = list(lim.cols)
     moving = (v > 1e-9 * max(float(v.max()), 1.0)) & (seg < 0)
     edges = np.flatnonzero(np.diff(np.r_[0, moving.astype(np.int8), 0]))
     windows = []
