@@ -76,26 +76,29 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
     v = speed_at(law, ph, ts)
     moving = (v > 1e-9 * max(float(v.max()), 1.0)) & (seg < 0)
     edges = np.flatnonzero(np.diff(np.r_[0, moving.astype(np.int8), 0]))
+    stretches = [(a + k0, a + k1) for a, b in zip(edges[::2], edges[1::2]) if b - a >= _MIN_SAMPLES
+                 for k0, k1 in _settled(v[a:b])]
+    if not stretches:
+        return None
+    # the term at every sample of every stretch, in one pass over the curve
+    at = np.concatenate([np.arange(k0, k1 + 1) for k0, k1 in stretches])
+    u = law.u_at(s[at], curve)
+    _, _, p3, _ = frame(curve, u, curve.interval_at(u))
+    over = np.zeros(len(s), dtype=bool)
+    over[at] = np.max(np.abs(p3[:, cols]) / lim.jmax[cols], axis=1) * v[at] ** 3 > _P3_BOUND
     windows = []
-    for a, b in zip(edges[::2], edges[1::2]):
-        if b - a < _MIN_SAMPLES:
+    for k0, k1 in stretches:
+        bound = np.flatnonzero(over[k0:k1 + 1])
+        if len(bound) < _BOUND_SHARE * (k1 - k0 + 1):
             continue
-        for k0, k1 in _settled(v[a:b]):
-            k0, k1 = a + k0, a + k1
-            u = law.u_at(s[k0:k1 + 1], curve)
-            _, _, p3, _ = frame(curve, u, curve.interval_at(u))
-            term = np.max(np.abs(p3[:, cols]) / lim.jmax[cols], axis=1) * v[k0:k1 + 1] ** 3
-            bound = np.flatnonzero(term > _P3_BOUND)
-            if len(bound) < _BOUND_SHARE * len(term):
-                continue
-            # starting and ending where the term holds the speed keeps the joins off stretches the plan runs
-            # at the jerk limit with its own (tangential) motion
-            k0, k1 = k0 + int(bound[0]), k0 + int(bound[-1])
-            if k1 - k0 < _MIN_SAMPLES:
-                continue
-            win = _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period)
-            if win is not None and win[1] < (k1 - k0) * period * (1.0 - 1e-6):
-                windows.append((k0, k1, *win))
+        # starting and ending where the term holds the speed keeps the joins off stretches the plan runs
+        # at the jerk limit with its own (tangential) motion
+        k0, k1 = k0 + int(bound[0]), k0 + int(bound[-1])
+        if k1 - k0 < _MIN_SAMPLES:
+            continue
+        win = _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period)
+        if win is not None and win[1] < (k1 - k0) * period * (1.0 - 1e-6):
+            windows.append((k0, k1, *win))
     # a window whose samples (or the joins to the plan's) break a limit is left as planned
     while windows:
         s_new, seg_new, spans = _stitch(law, ph, windows, total, period)
