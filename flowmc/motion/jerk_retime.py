@@ -22,7 +22,7 @@ unknowns, spaced about two sampling periods' travel; the constraints are held at
 each piece, with the geometry evaluated there. The stretch starts and ends on the S-curve plan's own
 motion (three control points fixed to it at each end), and the samples before and after are the plan's,
 shifted in time. The result is kept only if its sampled setpoints keep every axis within its jerk,
-acceleration and velocity limits (checked by the caller's sampler here) and it is faster.
+acceleration and velocity limits (checked here, from the samples) and it is faster.
 """
 
 from __future__ import annotations
