@@ -7,7 +7,9 @@ along the curve; the whole program at once, so "look-ahead" is the entire progra
 t = kT. The tool is on the smoothed curve at every setpoint; every setpoint is tagged with the
 programmed segment it is on. A jerk-limited law is first planned without mending the swings of its
 acceleration (timelaw's ``mend_swings``: a bound that stacks every jerk term at its worst), and planned again
-with them mended only if its sampled setpoints break a jerk limit.
+with them mended only if its sampled setpoints break a jerk limit. Where the curvature-change term of the
+jerk holds the speed, the samples are then retimed by flowmc.motion.jerk_retime (within every per-axis
+limit, from the samples), and kept if faster.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PlanningError
+from flowmc.motion.jerk_retime import retime_curvature_bound
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
@@ -36,7 +39,8 @@ PROFILES = ("trapezoid", "scurve")
 class SmoothPlan:
     """A planned program: setpoints, the curve parameter u of each, and how it was smoothed and timed.
 
-    ``corner_times`` is empty: every corner is smoothed (or stopped at), none is passed sharply.
+    ``corner_times`` is empty: every corner is smoothed (or stopped at), none is passed sharply. ``law`` is
+    the time law the setpoints come from; where flowmc.motion.jerk_retime retimed a stretch, they run faster.
     """
 
     trajectory: Trajectory
@@ -83,6 +87,15 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     law, u, dwell_seg, pos = planned(not jerk)
     if jerk and sampled_jerk(pos[:, list(lim.cols)], lim) > 1.0:
         law, u, dwell_seg, pos = planned(True)  # a swing of the acceleration broke the jerk limit: mend them all
+    if jerk:
+        retimed = retime_curvature_bound(law, curve, lim, feed_of_u, machine.period)
+        if retimed is not None:
+            r_u = law.u_at(retimed[0], curve)
+            r_u[-1] = law.u[-1]
+            r_pos = curve.points(r_u)
+            r_pos[0], r_pos[-1] = path.start, path.end
+            if len(r_u) < len(u):
+                u, dwell_seg, pos = r_u, retimed[1], r_pos
     tags = np.where(dwell_seg >= 0, dwell_seg, curve.segment_at(u))
     tags = np.maximum.accumulate(tags)
     cols = list(lim.cols)

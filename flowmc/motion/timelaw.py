@@ -52,7 +52,7 @@ from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import Windows, window_max, window_min
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk"]
+__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "arc_length_at", "speed_at", "frame"]
 
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
 _ROUNDS = 20
@@ -212,8 +212,8 @@ class _Geometry:
     kt: np.ndarray
 
 
-def _geometry(curve: PlannedCurve, u: np.ndarray, index: np.ndarray, cols) -> tuple[_Geometry, np.ndarray]:
-    """Geometric derivatives at u, and ds/du there."""
+def frame(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Tangent T, curvature vector K and P3 = d3p/ds3 by arc length at u (each (n, 3)), and ds/du there."""
     _, d1, d2, d3 = curve.evaluate(u, 3, index=index)
     sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
     tan = d1 / sp[:, None]
@@ -221,6 +221,12 @@ def _geometry(curve: PlannedCurve, u: np.ndarray, index: np.ndarray, cols) -> tu
     sp2 = (np.einsum("ij,ij->i", d2, d2) + np.einsum("ij,ij->i", d1, d3)) / sp - sp1**2 / sp
     kv = (d2 - sp1[:, None] * tan) / sp[:, None] ** 2
     p3 = (d3 - 3.0 * (sp * sp1)[:, None] * kv - sp2[:, None] * tan) / sp[:, None] ** 3
+    return tan, kv, p3, sp
+
+
+def _geometry(curve: PlannedCurve, u: np.ndarray, index: np.ndarray, cols) -> tuple[_Geometry, np.ndarray]:
+    """Geometric derivatives at u, and ds/du there."""
+    tan, kv, p3, sp = frame(curve, u, index)
     mask = np.zeros(3)
     mask[list(cols)] = 1.0
     return _Geometry(np.abs(tan) * mask, np.abs(kv) * mask, np.abs(p3) * mask, np.sign(tan) * kv * mask), sp
@@ -651,21 +657,35 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
     n = max(1, math.ceil(total / period - 1e-9))
     ts = np.arange(n + 1) * period
     ts[-1] = total
-    if law.window <= 0:
-        k, _ = ph.at(ts)
-        s = ph.s(ts)
-        seg = ph.owner[k]
-    else:
-        tj = law.window
-        at0, at1 = ph.at(ts - tj), ph.at(ts)
-        s = ((ph.integral(ts, at1) - ph.integral(ts - tj, at0)) / np.longdouble(tj)).astype(float)
-        k0, k1 = at0[0], at1[0]
-        resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
-        s = np.where(resting, ph.s0[k1], s)
-        seg = np.where(resting & (ph.owner[k1] >= 0), ph.owner[k1], -1)
+    s, seg = arc_length_at(law, ph, ts)
     u = law.u_at(s, curve)
     u[-1] = law.u[-1]
     return u, seg
+
+
+def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Arc length of the (filtered) motion at times ts, and the dwell segment each waits in (-1 elsewhere)."""
+    if law.window <= 0:
+        k, _ = ph.at(ts)
+        return ph.s(ts), ph.owner[k]
+    tj = law.window
+    at0, at1 = ph.at(ts - tj), ph.at(ts)
+    s = ((ph.integral(ts, at1) - ph.integral(ts - tj, at0)) / np.longdouble(tj)).astype(float)
+    k0, k1 = at0[0], at1[0]
+    resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
+    s = np.where(resting, ph.s0[k1], s)
+    seg = np.where(resting & (ph.owner[k1] >= 0), ph.owner[k1], -1)
+    return s, seg
+
+
+def speed_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> np.ndarray:
+    """Path speed of the (filtered) motion at times ts."""
+    def unfiltered(t):
+        k, tau = ph.at(t)
+        return ph.v0[k] + ph.a[k] * tau
+    if law.window <= 0:
+        return unfiltered(ts)
+    return (ph.s(ts) - ph.s(ts - law.window)) / law.window
 
 
 def sampled_jerk(positions: np.ndarray, lim: PathLimits) -> float:
