@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Windows", "window_min", "window_max", "moving_mean"]
+__all__ = ["Windows", "window_min", "window_max", "moving_means"]
 
 
 class Windows:
@@ -51,21 +51,28 @@ def window_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
     return -window_min(-np.asarray(values, dtype=float), lo, hi)
 
 
-def moving_mean(values: np.ndarray, size: int) -> np.ndarray:
-    """Mean over the ``size`` (odd) values centred on each, the ends mirrored (d c b a | a b c d | d c b a).
+def moving_means(values: np.ndarray, lengths: np.ndarray, size: int) -> np.ndarray:
+    """Mean over the ``size`` (odd) values centred on each, within consecutive segments of ``lengths`` values
+    that cover the array, each segment's ends mirrored (d c b a | a b c d | d c b a, repeated if it is short).
 
-    Why here and not scipy.ndimage.uniform_filter1d (mode "reflect"): it is all the smoothing needs from
-    scipy.ndimage, whose import costs about 0.2 s of CPU in a fresh process. The sum runs along the array
-    (the first window added in order, then each step adds the value entering and subtracts the one leaving)
-    and is divided at the end, which gives uniform_filter1d's values to the last bit.
+    Why per segment: the smoothing fit stacks many independent runs in one array; a mean across two runs
+    would tie a run's smoothing to its neighbour's, so a run could not be refitted on its own. Why not
+    scipy.ndimage.uniform_filter1d (mode "reflect"), which gives the same values: one call per segment is
+    slow for hundreds of short runs, and importing scipy.ndimage costs about 0.2 s of CPU in a fresh process.
     """
     if size % 2 != 1:
-        raise ValueError(f"moving_mean needs an odd window, got {size}")
+        raise ValueError(f"moving_means needs an odd window, got {size}")
     values = np.asarray(values, dtype=float)
-    if not len(values):
-        return values.copy()
-    ext = np.pad(values, size // 2, mode="symmetric")
-    steps = np.empty(len(values))
-    steps[0] = np.cumsum(ext[:size])[-1]
-    steps[1:] = ext[size:] - ext[:-size]
-    return np.cumsum(steps) / size
+    lengths = np.asarray(lengths, dtype=int)
+    if int(lengths.sum()) != len(values) or np.any(lengths <= 0):
+        raise ValueError(f"segment lengths must be positive and sum to {len(values)}")
+    half = size // 2
+    seg = np.repeat(np.arange(len(lengths)), lengths + 2 * half)
+    ext_start = np.r_[0, np.cumsum(lengths + 2 * half)[:-1]]
+    local = np.arange(len(seg)) - ext_start[seg] - half  # -half .. length + half - 1 in each segment
+    n, start = lengths[seg], np.r_[0, np.cumsum(lengths)[:-1]][seg]
+    m = np.mod(local, 2 * n)
+    ext = values[start + np.where(m < n, m, 2 * n - 1 - m)]
+    total = np.r_[0.0, np.cumsum(ext)]
+    at = np.arange(len(values)) - np.repeat(np.r_[0, np.cumsum(lengths)[:-1]], lengths) + np.repeat(ext_start, lengths)
+    return (total[at + size] - total[at]) / size

@@ -58,7 +58,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.path import Path
 from flowmc.motion.path_columns import CURVE, DWELL, LINE, PathColumns
 from flowmc.motion.pieces import REVERSAL, checked_feeds, corner_angle
-from flowmc.motion.ranges import moving_mean, window_max
+from flowmc.motion.ranges import moving_means, window_max
 
 __all__ = ["Smoothed", "smooth_path", "raw_curve"]
 
@@ -313,7 +313,7 @@ class _RunFitter:
     """
 
     def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2):
-        self.raw, self.ua, self.ub, self.tol = raw, ua, ub, tol
+        self.raw, self.ua, self.ub, self.tol, self.h = raw, ua, ub, tol, np.broadcast_to(h, ua.shape)
         self.order, self.stencil = order, _STENCILS[order]
         self.free_a, self.free_b = free_a, free_b
         n_runs = len(ua)
@@ -393,7 +393,7 @@ class _RunFitter:
         self.span_of = np.clip(np.floor((t - ua[run_of]) / hr[run_of]).astype(int), 0, spans[run_of] - 1) + offset[run_of]
         per_cp: np.ndarray = np.bincount(self.span_of, weights=np.minimum(self.seg_len, _ELL * hr[run_of]), minlength=total)
         per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
-        per_cp = moving_mean(per_cp, 41)
+        per_cp = moving_means(per_cp, ncp, 41)
         hd = hr[self.diff_run]
         segments = _ELL_SEGMENTS_JERK if self.order == 3 else _ELL_SEGMENTS
         ell = np.clip(np.maximum(segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
@@ -410,9 +410,6 @@ class _RunFitter:
         first = np.r_[0, np.flatnonzero(np.diff(self.span_of)) + 1]
         self.span_runs = (first, self.span_of[first])
         self.data_diag, self.rhs_data = self._normal_data()
-        # what every solve's assembly reuses: where each penalty row's products go, and which couplings stay
-        free = ~fixed
-        self.free_pair = [free[:total - k] & free[k:] for k in range(4)]
         self.fixed_x = self.c_fixed * fixed[:, None]
         self.q_rows = np.ascontiguousarray(self.q.T)
 
@@ -429,77 +426,107 @@ class _RunFitter:
                         for j in range(3)], axis=1)
         return diag, rhs
 
-    def _residual(self, coef: np.ndarray) -> np.ndarray:
-        """|B coef - q| at each data point, B the design matrix (summed over a row's four control points in order)."""
-        by_axis, b, cp = np.ascontiguousarray(coef.T), self.design_b, self.design_cp
+    def _residual(self, coef: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """|B coef - q| at data points ``rows``, B the design matrix (summed over a row's four control points in
+        order)."""
+        every = len(rows) == len(self.pu)  # all of them: no copy
+        b, cp, q = ((self.design_b, self.design_cp, self.q_rows) if every else
+                    (self.design_b[:, rows], self.design_cp[:, rows], self.q_rows[:, rows]))
+        by_axis = np.ascontiguousarray(coef.T)
         val = np.take(by_axis, cp[0], axis=1) * b[0]
         for a in range(1, 4):
             val += np.take(by_axis, cp[a], axis=1) * b[a]
-        d = val - self.q_rows
+        d = val - q
         return np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
 
-    def _solve(self) -> np.ndarray:
-        """The banded normal equations (upper form for solveh_banded), assembled directly: the data part's
-        four diagonals plus each penalty row's w * d^T d, d its difference stencil on its control points."""
-        total, fixed = self.total, self.fixed
-        w = self.mu * self.scale
+    def _solve(self, cps: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """The banded normal equations (upper form for solveh_banded) of the runs whose control points are
+        ``cps`` (whole runs, ascending) and penalty rows ``rows``, assembled directly: the data part's four
+        diagonals plus each penalty row's w * d^T d, d its difference stencil on its control points. Runs
+        share no entry (their end control points are fixed), so any set of them is solved on its own."""
+        total, fixed = len(cps), self.fixed[cps]
         w_at = np.zeros(total)  # each penalty row's weight at its first control point, zero between runs
-        w_at[self.diff_start] = w
-        diag = [d.copy() for d in self.data_diag]
+        w_at[np.searchsorted(cps, self.diff_start[rows])] = self.mu[rows] * self.scale[rows]
+        diag = [d[cps[:total - k]] for k, d in enumerate(self.data_diag)]
         stencil = self.stencil
         for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
             for q_ in range(p_, len(stencil)):
                 k = q_ - p_
                 diag[k][p_:] += stencil[p_] * stencil[q_] * w_at[:total - k - p_]
         # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
-        x = self.fixed_x
-        rhs = self.rhs_data - diag[0][:, None] * x
+        x = self.fixed_x[cps]
+        rhs = self.rhs_data[cps] - diag[0][:, None] * x
         for k in range(1, 4):
             d = diag[k][:, None]
             rhs[:-k] -= d * x[k:]
             rhs[k:] -= d * x[:-k]
         ab = np.zeros((4, total))
+        free = ~fixed
         for k in range(4):
-            ab[3 - k, k:] = diag[k] * self.free_pair[k]
+            ab[3 - k, k:] = diag[k] * (free[:total - k] & free[k:])
         ab[3, fixed] = 1.0
-        rhs[fixed] = self.c_fixed[fixed]
+        rhs[fixed] = self.c_fixed[cps][fixed]
         return solveh_banded(ab, rhs, check_finite=False)
 
     def _iterate(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Solve, then smooth less wherever the tolerance is not met and more wherever it is met with room to
         spare, so the fit settles where it just keeps the tolerance. Each run keeps its last fit that met
-        it (or its last, if none did)."""
+        it (or its last, if none did). Runs are independent: a run is solved again only while it may still
+        change, that is until it meets the tolerance after the settling iterations, or until its smoothing
+        stops changing."""
+        n_runs = len(self.ua)
+        coef = np.zeros((self.total, 3))
         best = np.zeros((self.total, 3))
-        ok_any = np.zeros(len(self.ua), dtype=bool)
-        dev_best = np.full(len(self.ua), np.inf)
-        cp_run = np.repeat(np.arange(len(self.ua)), self.ncp)
+        resid = np.zeros(len(self.pu))
+        ok_any = np.zeros(n_runs, dtype=bool)
+        dev_best = np.full(n_runs, np.inf)
+        cp_run = np.repeat(np.arange(n_runs), self.ncp)
+        first, span = self.span_runs  # where each span's data start, and its control point
+        span_run = self.run_of[first]
+        active = np.ones(n_runs, dtype=bool)
         for it in range(_FIT_ITER):
-            coef = self._solve()
-            resid = self._residual(coef)
-            dev = np.maximum.reduceat(resid, self.bounds[:-1])
+            runs = np.flatnonzero(active)
+            cps, rows, data = (np.flatnonzero(active[of]) for of in (cp_run, self.diff_run, self.run_of))
+            coef[cps] = self._solve(cps, rows)
+            resid[data] = r_act = self._residual(coef, data)
+            at = np.r_[0, np.cumsum(np.diff(self.bounds)[runs])[:-1]]
+            dev = np.maximum.reduceat(r_act, at)
             ok = dev <= self.tol
-            np.copyto(best, coef, where=(ok | ~ok_any)[cp_run, None])
-            dev_best = np.where(ok | ~ok_any, dev, dev_best)
-            ok_any |= ok
-            if ok.all() and it >= _FIT_SETTLE:
-                break
-            ratio = resid / self.tol
-            first, span = self.span_runs  # the largest per span, then onto its four control points
-            worst = np.zeros(self.total)
-            worst[span] = np.maximum.reduceat(ratio, first)
+            keep = ok | ~ok_any[runs]
+            take = cps[keep[np.searchsorted(runs, cp_run[cps])]]
+            best[take] = coef[take]
+            dev_best[runs] = np.where(keep, dev, dev_best[runs])
+            ok_any[runs] |= ok
+            if it >= _FIT_SETTLE:
+                active[runs[ok]] = False
+                if not active.any():
+                    break
+            # the largest ratio per span, then onto its four control points (of the runs still fitted)
+            cps, data = np.flatnonzero(active[cp_run]), np.flatnonzero(active[self.run_of])
+            s_act = np.flatnonzero(active[span_run])
+            worst = np.zeros(len(cps))
+            worst[np.searchsorted(cps, span[s_act])] = np.maximum.reduceat(resid[data] / self.tol,
+                                                                           np.searchsorted(data, first[s_act]))
             over = worst.copy()
             for j in range(1, 4):
                 np.maximum(over[j:], worst[:-j], out=over[j:])
-            row_over = window_max(over, self.reach_lo, self.reach_hi)
-            prev = self.scale
-            assert prev is not None  # set by _setup
+            rows = np.flatnonzero(active[self.diff_run])
+            row_over = window_max(over, np.searchsorted(cps, self.reach_lo[rows]), np.searchsorted(cps, self.reach_hi[rows]))
+            prev = self.scale[rows]
             scale = np.where(row_over > 1.0, prev / (1.2 * row_over**2), prev)
             if it < _FIT_SETTLE:  # room to spare: smooth more again (up to where it started)
                 scale = np.where(row_over < _SPARE, np.minimum(scale * _RELAX, 1.0), scale)
             # changed gently along the run: a step in smoothing makes a kink in the curve's parameter
-            scale = np.exp(np.minimum(moving_mean(np.log(scale), _BLUR), np.log(scale)))
+            n_rows = (self.ncp - self.order)[active]
+            scale = np.exp(np.minimum(moving_means(np.log(scale), n_rows, _BLUR), np.log(scale)))
             # never below the smoothing of one knot span: less only lets the parameter wander along the path
-            self.scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, prev, np.inf)), self.floor)
+            scale = np.maximum(np.minimum(scale, np.where(row_over > 1.0, prev, np.inf)), self.floor[rows])
+            self.scale[rows] = scale
+            # a run whose smoothing did not change would be solved to the same fit again
+            changed = np.add.reduceat((scale != prev).astype(int), np.r_[0, np.cumsum(n_rows)[:-1]]) > 0
+            active[np.flatnonzero(active)[~changed]] = False
+            if not active.any():
+                break
         return best, ok_any, dev_best
 
     def _arc_length_params(self, coef: np.ndarray, width: np.ndarray):
@@ -533,36 +560,48 @@ class _RunFitter:
             lengths[r] = s[-1]
         return t_new, lengths
 
+    def _only(self, keep: np.ndarray, t: np.ndarray, width: np.ndarray):
+        """A fitter for runs ``keep`` (a mask) alone, with their data's parameters ``t``, their widths and
+        their smoothing so far: the same data, so it goes on fitting them as this one would."""
+        sub = _RunFitter(self.raw, self.ua[keep], self.ub[keep], self.free_a[keep], self.free_b[keep], self.tol,
+                         self.h[keep], self.order)
+        sub.scale = self.scale[keep[self.diff_run]]
+        return sub, t[keep[self.run_of]], width[keep]
+
     def fit(self) -> _Fit:
         """Fit, re-parameterise the data by arc length along the fit (the programmed arc length drifts from the
         curve's wherever the fit cuts corners), fit again; each run keeps its last fit that met the
-        tolerance (or its first, when none did)."""
+        tolerance (or its first, when none did). Only the runs that have not met the tolerance yet are
+        re-parameterised and fitted again."""
         n_runs = len(self.ua)
-        width = self.ub - self.ua
-        t = self.pu.copy()
         knots: list[np.ndarray] = [np.empty(0)] * n_runs
         coefs: list[np.ndarray] = [np.empty((0, 3))] * n_runs
         knot_pu: list[np.ndarray] = [np.empty(0)] * n_runs
         ok_any = np.zeros(n_runs, dtype=bool)
         dev_best = np.full(n_runs, np.inf)
+        fitter, runs, t, width = self, np.arange(n_runs), self.pu.copy(), self.ub - self.ua
         for attempt in range(_PARAM_PASSES + 1):
-            self._setup(t, width)
-            coef, ok, dev = self._iterate()
-            take = ok | (~ok_any & (dev < dev_best))
-            for r in np.flatnonzero(take):
-                lo, hi = self.bounds[r], self.bounds[r + 1]
-                knots[r] = self.knots[r]
-                coefs[r] = coef[self.offset[r]:self.offset[r] + self.ncp[r]]
-                knot_pu[r] = np.interp(self.knots[r][3:-3], t[lo:hi], self.pu[lo:hi])
-                dev_best[r] = dev[r]
-            ok_any |= ok
+            fitter._setup(t, width)
+            coef, ok, dev = fitter._iterate()
+            take = ok | (~ok_any[runs] & (dev < dev_best[runs]))
+            for i in np.flatnonzero(take):
+                r, lo, hi = runs[i], fitter.bounds[i], fitter.bounds[i + 1]
+                knots[r] = fitter.knots[i]
+                coefs[r] = coef[fitter.offset[i]:fitter.offset[i] + fitter.ncp[i]]
+                knot_pu[r] = np.interp(fitter.knots[i][3:-3], t[lo:hi], fitter.pu[lo:hi])
+                dev_best[r] = dev[i]
+            ok_any[runs] |= ok
             if attempt == _PARAM_PASSES or ok_any.all():
                 break
-            moved = self._arc_length_params(coef, width)
+            keep = ~ok_any[runs]
+            sub, t, width = fitter._only(keep, t, width)
+            sub._setup(t, width)
+            moved = sub._arc_length_params(coef[np.repeat(keep, fitter.ncp)], width)
             if moved is None:
                 break
-            t, width = moved
-        return _Fit(knots, np.concatenate(coefs), self.offset, ok_any, dev_best, knot_pu)
+            fitter, runs, (t, width) = sub, runs[keep], moved
+        offset = np.r_[0, np.cumsum([len(c) for c in coefs])[:-1]]
+        return _Fit(knots, np.concatenate(coefs), offset, ok_any, dev_best, knot_pu)
 
 
 def _run_polys(fit: _Fit, r: int, ncp: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
