@@ -41,8 +41,8 @@ __all__ = ["retime_curvature_bound"]
 
 _JERK_SHARE = 0.985  # the programs aim at this share of jmax at their points (the samples are checked against 1)
 _ACCEL_SHARE = 0.999
-_SUB = np.arange(3) / 2  # where in each piece of the spline the constraints are held (HiGHS's time grows with the
-# rows: a fourth point per piece cost flowsnake 0.5 s for no gain, the samples of both keep 0.99 of jmax)
+_SUB = np.arange(4) / 3  # where in each piece of the spline the constraints are held (with three, a stretch of the
+# small Gosper curve of the tests broke the jerk limit between them and was left as planned)
 _FINE, _FINE_MAX = 8, 512  # constant-acceleration steps per piece when sampling the result
 _STEP_PERIODS = 3.0  # control points about this many sampling periods' travel apart (2: flowsnake 5.806 s of
 # motion instead of 5.829, for twice the planning time)
