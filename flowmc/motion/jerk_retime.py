@@ -62,7 +62,8 @@ _END_FIT = 3  # samples each side of a stretch's ends the boundary state (u, u',
 def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, feed_of_u,
                            period: float) -> tuple[np.ndarray, np.ndarray] | None:
     """Arc length and dwell segment (-1 elsewhere) at t = kT of ``law``'s motion with every stretch where the
-    curvature-change term holds the speed retimed (module docstring); None if no stretch is, or none gains.
+    curvature-change term holds the speed retimed (module docstring); None if no stretch is, they are under
+    _MIN_SHARE of the plan's time, or none gains.
     Every sample keeps each axis's velocity, acceleration and jerk (finite differences) within its limit:
     a stretch whose samples would not is left as planned."""
     cols = list(lim.cols)
