@@ -11,7 +11,7 @@ import numpy as np
 from flowmc.motion import jerk_retime
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Axis, Machine
-from flowmc.motion.path import Path
+from flowmc.motion.path import Dwell, Line, Path
 from flowmc.motion.planner import plan_smooth
 from flowmc.motion.timelaw import sample_time_law
 
@@ -82,3 +82,24 @@ def test_straight_code_has_no_curvature_bound_stretch():
     assert jerk_retime.retime_curvature_bound(plan.law, curve, PathLimits.of(machine),
                                               lambda u: plan.smoothed.seg_feed[curve.segment_at(u)],
                                               machine.period) is None
+
+
+def test_stretches_that_are_a_sliver_of_the_plan_are_not_retimed(monkeypatch):
+    # the Gosper curve, a dwell, then a 1000 mm line: the curve's curvature-bound stretch is about a quarter
+    # of the plan's 9.8 s, retimed by default and left alone where 40 % of the plan is asked for
+    monkeypatch.setattr(jerk_retime, "_BOUND_SHARE", 0.1)
+    machine = cam_machine()
+    snake = gosper(3, 0.03)
+    end = snake.segments[-1].end
+    path = Path([*snake.segments, Dwell(end, 0.1), Line(end, end - [1000.0, 0.0, 0.0], feed=200.0)])
+    plan = plan_smooth(path, machine, tolerance=0.05, profile="scurve")
+    curve = plan.smoothed.curve
+
+    def retimed():
+        return jerk_retime.retime_curvature_bound(plan.law, curve, PathLimits.of(machine),
+                                                  lambda u: plan.smoothed.seg_feed[curve.segment_at(u)],
+                                                  machine.period)
+
+    assert retimed() is not None
+    monkeypatch.setattr(jerk_retime, "_MIN_SHARE", 0.4)
+    assert retimed() is None
