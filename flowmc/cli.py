@@ -16,8 +16,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-from flowmc.errors import FlowmcError, GraphError, printable
-from flowmc.settings import UsageError, input_target, param_target
+from flowmc.errors import FlowmcError, GraphError, UsageError, printable
 
 __all__ = ["main", "build_parser"]
 
@@ -40,6 +39,8 @@ def _split_assignment(item: str, option: str) -> tuple[str, str]:
 
 def apply_sets(graph: Any, sets: list[str], registry: Any) -> None:
     """``--set NODE.PARAM=VALUE``: change stored params; unknown nodes or params are errors."""
+    from flowmc.settings import param_target  # dataclasses and the settings' rules: only when asked
+
     for item in sets:
         name, text = _split_assignment(item, "--set")
         what = f"--set {name}"
@@ -50,6 +51,8 @@ def apply_sets(graph: Any, sets: list[str], registry: Any) -> None:
 
 
 def parse_inputs(graph: Any, items: list[str]) -> dict[str, Any]:
+    from flowmc.settings import input_target
+
     values: dict[str, Any] = {}
     for item in items:
         name, text = _split_assignment(item, "--input")

@@ -19,6 +19,7 @@ __all__ = [
     "DeviceError",
     "LimitError",
     "BudgetError",
+    "UsageError",
     "printable",
 ]
 
@@ -83,3 +84,7 @@ class LimitError(DeviceError):
 class BudgetError(FlowmcError):
     """A node would produce more than the resource budget allows (``flowmc.budget``); the
     message says how much was asked for, the cap, and what to change."""
+
+
+class UsageError(FlowmcError):
+    """A bad argument from the command line or a sweep definition (exit 2)."""

@@ -23,8 +23,6 @@ import hashlib
 import importlib
 import importlib.util
 import os
-import pkgutil
-import re
 import sys
 import threading
 from importlib import resources
@@ -71,30 +69,17 @@ def build_registry(*, node_folders: Iterable[str | os.PathLike] = (), entry_poin
     """A registry from the built-in nodes, entry points, the config's node folders and ``node_folders``.
 
     Built-in node modules and entry points are deferred: a module is imported when one of its types
-    is first looked up (its ids are read from its source, ``type_id = "..."``), entry points when a
+    is first looked up (``flowmc.nodes.BUILT_IN`` names their ids), entry points when a
     type is not found elsewhere or every type is listed. Node folders load at once."""
     registry = Registry(library=GraphLibrary([package_library()]))
-    folder = Path(flowmc.nodes.__file__).parent
-    for info in sorted(pkgutil.iter_modules(flowmc.nodes.__path__), key=lambda m: m.name):
-        name = f"{flowmc.nodes.__name__}.{info.name}"
-        registry.defer(functools.partial(_load_module, name), _declared_ids(folder / f"{info.name}.py"))
+    for module, type_ids in flowmc.nodes.BUILT_IN.items():
+        registry.defer(functools.partial(_load_module, f"{flowmc.nodes.__name__}.{module}"), type_ids)
     if entry_points:
         registry.defer(_load_entry_points)
     folders = [*(_config_folders(registry) if config else []), *(Path(f) for f in node_folders)]
     for node_folder in dict.fromkeys(Path(f).expanduser().resolve() for f in folders):  # each folder once
         add_node_folder(registry, node_folder)
     return registry
-
-
-_TYPE_ID_LINE = re.compile(r"""^\s+type_id\s*=\s*["']([a-z0-9_.]+)["']""", re.M)
-
-
-def _declared_ids(source: Path) -> list[str]:
-    """The type ids a node module declares, read from its text without importing it."""
-    try:
-        return _TYPE_ID_LINE.findall(source.read_text(encoding="utf-8"))
-    except OSError:
-        return []
 
 
 def _add_all(registry: Registry, classes: Iterable[type[NodeType]], origin: str) -> list[str]:

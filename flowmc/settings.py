@@ -12,13 +12,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from flowmc.errors import FlowmcError, GraphError
+from flowmc.errors import GraphError, UsageError
 
 __all__ = ["UsageError", "Target", "parse_value", "target", "param_target", "input_target"]
-
-
-class UsageError(FlowmcError):
-    """A bad argument from the command line or a sweep definition (exit 2)."""
 
 
 def parse_value(port_type: str | None, text: str, what: str) -> Any:
@@ -32,7 +28,7 @@ def parse_value(port_type: str | None, text: str, what: str) -> Any:
     >>> parse_value("Path", "x", "--input p")
     Traceback (most recent call last):
     ...
-    flowmc.settings.UsageError: --input p: a Path cannot be given on the command line
+    flowmc.errors.UsageError: --input p: a Path cannot be given on the command line
     """
     if port_type == "Text":
         return text

@@ -8,7 +8,6 @@ One entry per node id (its last result), so memory stays bounded in a long edito
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass
 from typing import Any, Iterable
 
 __all__ = ["static_key", "signature", "CacheEntry", "NodeCache", "IterationCache"]
@@ -31,11 +30,16 @@ def signature(static: bytes, input_digests: Iterable[tuple[str, str]]) -> bytes:
     return h.digest()
 
 
-@dataclass(frozen=True, slots=True)
 class CacheEntry:
-    signature: bytes
-    outputs: dict[str, Any]
-    digests: dict[str, str]
+    """One cached run: the signature it ran under, its outputs and their digests (a plain class: a
+    dataclass's methods are compiled from text at every start)."""
+
+    __slots__ = ("signature", "outputs", "digests")
+
+    def __init__(self, signature: bytes, outputs: dict[str, Any], digests: dict[str, str]) -> None:
+        self.signature = signature
+        self.outputs = outputs
+        self.digests = digests
 
 
 class NodeCache:

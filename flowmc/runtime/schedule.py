@@ -10,7 +10,6 @@ each cycle (``nx.find_cycle``, rotated to start at its smallest id).
 from __future__ import annotations
 
 import graphlib
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,21 +24,29 @@ from flowmc.runtime.validate import BoundNode, check_graph
 __all__ = ["Plan", "make_plan", "generations", "find_cycles"]
 
 
-@dataclass
 class Plan:
-    """A validated graph: ``issues`` (empty when it can run), ``order``, ``generations``, ports per node."""
+    """A validated graph: ``issues`` (empty when it can run), ``order``, ``generations``, ports per node.
+    (A plain class, not a dataclass: those have their methods compiled from text at every start.)"""
 
-    graph: Graph
-    site: Site
-    registry: Registry
-    issues: list[Issue]
-    nodes: dict[str, BoundNode]
-    successors: dict[str, set[str]]  # node id -> the nodes its outputs feed
-    generations: list[list[str]]
-    iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]]
-    iface_outputs: dict[str, tuple[Any, tuple[str, str]]]
-    deps: dict[Path, str | None] = field(default_factory=dict)  # files read (sub-graphs) and their content hash
-    size: int = 0  # nodes the graph expands to: its own, and those of the graphs they hold, in turn
+    __slots__ = ("graph", "site", "registry", "issues", "nodes", "successors", "generations", "iface_inputs",
+                 "iface_outputs", "deps", "size")
+
+    def __init__(self, graph: Graph, site: Site, registry: Registry, issues: list[Issue],
+                 nodes: dict[str, BoundNode], successors: dict[str, set[str]], generations: list[list[str]],
+                 iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]],
+                 iface_outputs: dict[str, tuple[Any, tuple[str, str]]], deps: dict[Path, str | None] | None = None,
+                 size: int = 0) -> None:
+        self.graph = graph
+        self.site = site
+        self.registry = registry
+        self.issues = issues
+        self.nodes = nodes
+        self.successors = successors  # node id -> the nodes its outputs feed
+        self.generations = generations
+        self.iface_inputs = iface_inputs
+        self.iface_outputs = iface_outputs
+        self.deps = {} if deps is None else deps  # files read (sub-graphs) and their content hash
+        self.size = size  # nodes the graph expands to: its own, and those of the graphs they hold, in turn
 
     @property
     def ok(self) -> bool:

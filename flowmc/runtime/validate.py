@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
@@ -47,33 +46,45 @@ def value_matches(port_type: str, value: Any) -> bool:
     return True
 
 
-@dataclass
 class BoundNode:
-    """A node with its type resolved, params validated and ports known."""
+    """A node with its type resolved, params validated and ports known. (A plain class, not a dataclass:
+    Python builds a dataclass's methods from source text, a cost every cold start paid.)"""
 
-    id: str
-    cls: type[NodeType]
-    raw_params: dict[str, Any]
-    params: BaseModel | None  # None: some stored param is invalid but wired (checked at run time)
-    inputs: dict[str, In]  # data inputs and param ports by name
-    outputs: dict[str, Out]
-    pure: bool
-    static: bytes = b""
-    binding: Any = None  # types that hold a graph (runtime.binding): the inner plan
-    moves: bool = False  # a device node, or a sub-graph holding one: two phases (runtime.start)
-    sources: dict[str, tuple[str, str]] = field(default_factory=dict)  # input -> (node, output)
-    fed: dict[str, str] = field(default_factory=dict)  # input -> interface input name
+    __slots__ = ("id", "cls", "raw_params", "params", "inputs", "outputs", "pure", "static", "binding", "moves",
+                 "sources", "fed")
+
+    def __init__(self, id: str, cls: type[NodeType], raw_params: dict[str, Any], params: BaseModel | None,
+                 inputs: dict[str, In], outputs: dict[str, Out], pure: bool, static: bytes = b"",
+                 binding: Any = None, moves: bool = False) -> None:
+        self.id = id
+        self.cls = cls
+        self.raw_params = raw_params
+        self.params = params  # None: some stored param is invalid but wired (checked at run time)
+        self.inputs = inputs  # data inputs and param ports by name
+        self.outputs = outputs
+        self.pure = pure
+        self.static = static
+        self.binding = binding  # types that hold a graph (runtime.binding): the inner plan
+        self.moves = moves  # a device node, or a sub-graph holding one: two phases (runtime.start)
+        self.sources: dict[str, tuple[str, str]] = {}  # input -> (node, output)
+        self.fed: dict[str, str] = {}  # input -> interface input name
 
 
-@dataclass
 class Checked:
-    issues: list[Issue]
-    nodes: dict[str, BoundNode]
-    node_ids: list[str]  # every distinct id, sorted (also those whose type is unknown)
-    edges: list[tuple[str, str]]
-    iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]]
-    iface_outputs: dict[str, tuple[Any, tuple[str, str]]]
-    deps: dict[Path, str | None]
+    """What ``check_graph`` found: the issues, the bound nodes, the wires and the interface."""
+
+    __slots__ = ("issues", "nodes", "node_ids", "edges", "iface_inputs", "iface_outputs", "deps")
+
+    def __init__(self, issues: list[Issue], nodes: dict[str, BoundNode], node_ids: list[str],
+                 edges: list[tuple[str, str]], iface_inputs: dict[str, tuple[Any, list[tuple[str, str]]]],
+                 iface_outputs: dict[str, tuple[Any, tuple[str, str]]], deps: dict[Path, str | None]) -> None:
+        self.issues = issues
+        self.nodes = nodes
+        self.node_ids = node_ids  # every distinct id, sorted (also those whose type is unknown)
+        self.edges = edges
+        self.iface_inputs = iface_inputs
+        self.iface_outputs = iface_outputs
+        self.deps = deps
 
 
 def check_graph(graph: Graph, site: Site, registry: Registry, plan: Callable[[Graph, Site], Any],

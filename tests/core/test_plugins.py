@@ -129,16 +129,17 @@ def test_a_registry_of_only_some_types():
 
 
 def test_the_id_index_of_built_in_modules_matches_what_they_declare():
-    """build_registry defers each built-in node module under the ids its text declares."""
+    """build_registry defers each built-in node module under the ids flowmc.nodes.BUILT_IN gives it:
+    the index names every module of the package, and each module's ids in the order it declares them."""
     import importlib
     import pkgutil
 
     import flowmc.nodes
-    from flowmc.plugins import _declared_ids
     from flowmc.registry import declared_in
 
-    folder = Path(flowmc.nodes.__file__).parent
-    for info in pkgutil.iter_modules(flowmc.nodes.__path__):
-        name = f"flowmc.nodes.{info.name}"
+    modules = sorted(info.name for info in pkgutil.iter_modules(flowmc.nodes.__path__))
+    assert sorted(flowmc.nodes.BUILT_IN) == modules
+    for module in modules:
+        name = f"flowmc.nodes.{module}"
         importlib.import_module(name)
-        assert sorted(_declared_ids(folder / f"{info.name}.py")) == sorted(c.type_id for c in declared_in(name)), name
+        assert flowmc.nodes.BUILT_IN[module] == tuple(c.type_id for c in declared_in(name)), name
