@@ -15,8 +15,10 @@ The Python API, kept light to import (no UI, no devices, nothing heavy until use
 
 from __future__ import annotations
 
-import importlib
 from typing import Any
+
+from flowmc.lazy import load as _load
+from flowmc.lazy import names as _names
 
 __version__ = "0.1.0"  # with CHANGELOG.md's newest release; pyproject.toml reads it from here
 
@@ -56,13 +58,8 @@ _LAZY = {
 
 
 def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'flowmc' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+    return _load(__name__, globals(), _LAZY, name)
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    return _names(globals())

@@ -342,7 +342,7 @@ class _RunFitter:
         # kinks between them without reshaping the curve they describe
         k_raw = raw.interval_at(self.pu)
         self.seg_len = raw.u1[k_raw] - raw.u0[k_raw]
-        self.scale: np.ndarray | None = None
+        self.scale = np.zeros(0)  # per penalty row, set at the first setup (a part's fitter is given its own)
 
     def _data_tangent(self, at: np.ndarray, length: np.ndarray, free: np.ndarray, way: float) -> np.ndarray:
         """Unit tangent of the programmed path at run ends ``at`` (going into the run): the slope at the end of
@@ -403,7 +403,7 @@ class _RunFitter:
         first_cp, last_cp = offset[self.diff_run], offset[self.diff_run] + ncp[self.diff_run] - 1
         self.reach_lo = np.maximum(self.diff_start + 1 - reach, first_cp)
         self.reach_hi = np.minimum(self.diff_start + 1 + reach, last_cp)
-        if self.scale is None:
+        if not len(self.scale):
             self.scale = np.ones(len(self.diff_start))
         # where each span's data start: the data run along the spans (sorted by run and parameter, and the
         # parameters rise within a run), so each span's data are one stretch

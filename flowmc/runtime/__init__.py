@@ -13,8 +13,10 @@ Public API (the CLI and the editor use only this)::
 
 from __future__ import annotations
 
-import importlib
 from typing import Any
+
+from flowmc.lazy import load as _load
+from flowmc.lazy import names as _names
 
 # Names are imported on first use, as ``flowmc`` does: the modules that plan a graph (schedule, validate,
 # binding, context) are imported without the executor, events and jobs, which ``flowmc validate`` and
@@ -61,13 +63,8 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'flowmc.runtime' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+    return _load(__name__, globals(), _LAZY, name)
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    return _names(globals())

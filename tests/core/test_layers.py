@@ -15,7 +15,7 @@ ROOT = Path(flowmc.__file__).parent
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: dict[str, tuple[str, ...]] = {
-    "leaf": ("flowmc.errors", "flowmc.ports", "flowmc.budget", "flowmc.fileio"),
+    "leaf": ("flowmc.errors", "flowmc.ports", "flowmc.budget", "flowmc.fileio", "flowmc.lazy"),
     "motion": ("flowmc.motion",),
     "devices": ("flowmc.devices",),
     "core": ("flowmc.graph", "flowmc.migrations", "flowmc.digest", "flowmc.registry", "flowmc.builder",

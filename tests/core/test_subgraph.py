@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 
@@ -211,16 +212,21 @@ def test_library_graphs_using_each_other_are_refused(registry, tmp_path):
     assert issues[0].message.endswith("ping.flowmc.json -> pong.flowmc.json -> ping.flowmc.json")
 
 
-def test_library_graph_uses_its_siblings(registry, tmp_path):
-    (tmp_path / "lib").mkdir()
-    _double(tmp_path / "lib" / "double.flowmc.json")
+def _quad(lib: Path) -> None:
+    """``lib.double`` and ``lib.quad``, a library graph made of two of it (its sibling)."""
+    lib.mkdir()
+    _double(lib / "double.flowmc.json")
     g = flowmc.GraphBuilder(title="Quad")
     x = g.add("lib.double", id="first")
     y = g.add("lib.double", id="second")
     g.wire(x.y, y.x)
     g.input("x", "Number", x.x)
     g.output("y", "Number", y.y)
-    g.save(tmp_path / "lib" / "quad.flowmc.json")
+    g.save(lib / "quad.flowmc.json")
+
+
+def test_library_graph_uses_its_siblings(registry, tmp_path):
+    _quad(tmp_path / "lib")
     assert flowmc.run(_user(tmp_path, node_type="lib.quad"), registry=registry).outputs == {"out": 16.0}
 
 
@@ -239,15 +245,7 @@ def test_a_library_graph_is_read_and_planned_once_per_validation(registry, tmp_p
 
 
 def test_a_library_type_follows_the_library_graphs_it_uses(registry, tmp_path):
-    (tmp_path / "lib").mkdir()
-    _double(tmp_path / "lib" / "double.flowmc.json")
-    g = flowmc.GraphBuilder(title="Quad")
-    x = g.add("lib.double", id="first")
-    y = g.add("lib.double", id="second")
-    g.wire(x.y, y.x)
-    g.input("x", "Number", x.x)
-    g.output("y", "Number", y.y)
-    g.save(tmp_path / "lib" / "quad.flowmc.json")
+    _quad(tmp_path / "lib")
     user = _user(tmp_path, node_type="lib.quad")
     assert flowmc.run(user, registry=registry).outputs == {"out": 16.0}
     _double(tmp_path / "lib" / "double.flowmc.json", factor=3.0)  # quad's own file is unchanged
