@@ -27,15 +27,13 @@ acceleration and velocity limits (checked here, from the samples) and it is fast
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import scipy.sparse as sparse
 from scipy.optimize import linprog
 
 from flowmc.motion.curve import PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_length_at, frame, speed_at
+from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_length_at, frame, sample_times, speed_at
 
 __all__ = ["retime_curvature_bound"]
 
@@ -60,10 +58,10 @@ _END_FIT = 3  # samples each side of a stretch's ends the boundary state (u, u',
 
 
 def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, feed_of_u,
-                           period: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """Arc length and dwell segment (-1 elsewhere) at t = kT of ``law``'s motion with every stretch where the
-    curvature-change term holds the speed retimed (module docstring); None if no stretch is, they are under
-    _MIN_SHARE of the plan's time, or none gains.
+                           period: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Curve parameter, dwell segment (-1 elsewhere) and position at t = kT of ``law``'s motion with every
+    stretch where the curvature-change term holds the speed retimed (module docstring); None if no stretch
+    is, they are under _MIN_SHARE of the plan's time, or none gains.
     Every sample keeps each axis's velocity, acceleration and jerk (finite differences) within its limit:
     a stretch whose samples would not is left as planned."""
     cols = list(lim.cols)
@@ -74,9 +72,8 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
         return None
     ph = _phases(law)
     total = float(ph.start[-1] + ph.dur[-1]) + law.window
-    n = max(1, math.ceil(total / period - 1e-9))
-    ts = np.arange(n + 1) * period
-    ts[-1] = total
+    ts = sample_times(total, period)
+    n = len(ts) - 1
     s, seg = arc_length_at(law, ph, ts)
     v = speed_at(law, ph, ts)
     moving = (v > 1e-9 * max(float(v.max()), 1.0)) & (seg < 0)
@@ -110,11 +107,11 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
     # a window whose samples (or the joins to the plan's) break a limit is left as planned
     while windows:
         s_new, seg_new, spans = _stitch(law, ph, windows, total, period)
-        u = law.u_at(s_new, curve)
-        u[-1] = law.u[-1]
-        bad = _over_limits(curve.points(u)[:, cols], lim)
+        u = law.u_sampled(s_new, curve)
+        pos = curve.points(u)
+        bad = _over_limits(pos[:, cols], lim)
         if not len(bad):
-            return s_new, seg_new
+            return u, seg_new, pos
         t_bad = bad * period
         keep = [w for w, (a, b) in zip(windows, spans)
                 if not np.any((t_bad >= a - 4 * period) & (t_bad <= b + period))]
@@ -272,10 +269,7 @@ def _stitch(law, ph, windows, total, period):
     before = np.r_[0.0, shift[:-1]]
     new_start = k0 * period + before
     new_end = new_start + dur
-    end = total + shift[-1]
-    n = max(1, math.ceil(end / period - 1e-9))
-    ts = np.arange(n + 1) * period
-    ts[-1] = end
+    ts = sample_times(total + shift[-1], period)
     w = np.searchsorted(new_start, ts, side="right") - 1
     inside = (w >= 0) & (ts <= new_end[np.maximum(w, 0)])
     old_t = ts - np.where(w >= 0, shift[np.maximum(w, 0)], 0.0)

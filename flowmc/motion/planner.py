@@ -89,13 +89,9 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
         law, u, dwell_seg, pos = planned(True)  # a swing of the acceleration broke the jerk limit: mend them all
     if jerk:
         retimed = retime_curvature_bound(law, curve, lim, feed_of_u, machine.period)
-        if retimed is not None:
-            r_u = law.u_at(retimed[0], curve)
-            r_u[-1] = law.u[-1]
-            r_pos = curve.points(r_u)
-            r_pos[0], r_pos[-1] = path.start, path.end
-            if len(r_u) < len(u):
-                u, dwell_seg, pos = r_u, retimed[1], r_pos
+        if retimed is not None and len(retimed[0]) < len(u):
+            u, dwell_seg, pos = retimed
+            pos[0], pos[-1] = path.start, path.end
     tags = np.where(dwell_seg >= 0, dwell_seg, curve.segment_at(u))
     tags = np.maximum.accumulate(tags)
     cols = list(lim.cols)

@@ -52,7 +52,8 @@ from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import Windows, window_max, window_min
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "arc_length_at", "speed_at", "frame"]
+__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "sample_times", "arc_length_at", "speed_at",
+           "frame"]
 
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
 _ROUNDS = 20
@@ -92,6 +93,13 @@ class TimeLaw:
     stop_segment: np.ndarray
     window: float  # Tj of the moving average; 0 for none
     period: float  # the sampling period T
+
+    def u_sampled(self, s: np.ndarray, curve: PlannedCurve) -> np.ndarray:
+        """``u_at`` for sampled arc lengths ending at the motion's end: the last sample is the law's end exactly
+        (rounding in s would leave the tool a hair short of it)."""
+        u = self.u_at(s, curve)
+        u[-1] = self.u[-1]
+        return u
 
     def u_at(self, s: np.ndarray, curve: PlannedCurve) -> np.ndarray:
         """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends;
@@ -654,13 +662,16 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
                  what=f"planning {total:.6g} s of motion at a {period * 1e3:g} ms period",
                  change="raise the feeds (a feed near 0 makes a move last for ever), shorten the program, "
                         "or lengthen the machine's period")
+    s, seg = arc_length_at(law, ph, sample_times(total, period))
+    return law.u_sampled(s, curve), seg
+
+
+def sample_times(total: float, period: float) -> np.ndarray:
+    """t = kT for k = 0..N, the last exactly at the end of a motion lasting ``total``."""
     n = max(1, math.ceil(total / period - 1e-9))
     ts = np.arange(n + 1) * period
     ts[-1] = total
-    s, seg = arc_length_at(law, ph, ts)
-    u = law.u_at(s, curve)
-    u[-1] = law.u[-1]
-    return u, seg
+    return ts
 
 
 def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
