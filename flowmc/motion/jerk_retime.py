@@ -33,7 +33,8 @@ from scipy.optimize import linprog
 
 from flowmc.motion.curve import PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_length_at, frame, sample_times, speed_at
+from flowmc.motion.sample_clock import sample_times
+from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_length_at, frame, speed_at
 
 __all__ = ["retime_curvature_bound"]
 

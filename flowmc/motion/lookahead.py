@@ -29,13 +29,13 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-import flowmc.budget as budget
 from flowmc.errors import PlanningError
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.pieces import DWELL, REVERSAL, Pieces, build_pieces, corner_angle
 from flowmc.motion.profiles import Profile, plan_exponential, plan_scurve, plan_trapezoid
+from flowmc.motion.sample_clock import setpoint_times
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.trajectory import Trajectory
 
@@ -459,13 +459,7 @@ def _sample(pieces: Pieces, runs: _Runs, phases: _Phases, path: Path, machine: M
     run_dist = cum - seg_d - (cum[run_first] - seg_d[run_first])
     phases.s_start = runs.s0[phases.run] + run_dist
 
-    budget.check("setpoints", total / period + 1, axes=len(cols),
-                 what=f"planning {total:.6g} s of motion at a {period * 1e3:g} ms period",
-                 change="raise the feeds (a feed near 0 makes a move last for ever), shorten the program, "
-                        "or lengthen the machine's period")
-    n = max(1, math.ceil(total / period - 1e-9))
-    t = np.arange(n + 1) * period
-    t[-1] = min(t[-1], total)
+    t = setpoint_times(total, period, len(cols))
     idx = np.clip(np.searchsorted(starts[:-1], t, side="right") - 1, 0, len(phases.dur) - 1)
     tau_t = np.clip(t - starts[idx], 0.0, phases.dur[idx])
     run = phases.run[idx]

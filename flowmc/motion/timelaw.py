@@ -46,13 +46,13 @@ from functools import cached_property
 
 import numpy as np
 
-import flowmc.budget as budget
 from flowmc.errors import PlanningError
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import Windows, window_max, window_min
+from flowmc.motion.sample_clock import setpoint_times
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "sample_times", "arc_length_at", "speed_at",
+__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "arc_length_at", "speed_at",
            "frame"]
 
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
@@ -658,20 +658,8 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
     columns) than the budget allows."""
     ph = _phases(law)
     total = float(ph.start[-1] + ph.dur[-1]) + law.window
-    budget.check("setpoints", total / period + 1, axes=axes,
-                 what=f"planning {total:.6g} s of motion at a {period * 1e3:g} ms period",
-                 change="raise the feeds (a feed near 0 makes a move last for ever), shorten the program, "
-                        "or lengthen the machine's period")
-    s, seg = arc_length_at(law, ph, sample_times(total, period))
+    s, seg = arc_length_at(law, ph, setpoint_times(total, period, axes))
     return law.u_sampled(s, curve), seg
-
-
-def sample_times(total: float, period: float) -> np.ndarray:
-    """t = kT for k = 0..N, the last exactly at the end of a motion lasting ``total``."""
-    n = max(1, math.ceil(total / period - 1e-9))
-    ts = np.arange(n + 1) * period
-    ts[-1] = total
-    return ts
 
 
 def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
