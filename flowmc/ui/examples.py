@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from flowmc.errors import GraphError
 from flowmc.graph import load
-from flowmc.ui.palette_list import page_button
+from flowmc.ui.palette_list import button_css, page_button
 from flowmc.ui.text import escape_html
 
 if TYPE_CHECKING:
@@ -30,10 +30,7 @@ _STYLE = ("<style>.flowmc-examples section{margin:0 var(--mantine-spacing-xs) .9
           "border-bottom:1px solid var(--mantine-color-default-border)}"
           ".flowmc-examples h4{margin:0 0 .2em;font-size:.95em;font-weight:600}"
           ".flowmc-examples p{margin:0 0 .45em;font-size:.85em;opacity:.8}"
-          ".flowmc-examples button{height:2em;padding:0 .9em;border:0;border-radius:var(--mantine-radius-default);"
-          "background:var(--mantine-primary-color-filled);color:#fff;font:inherit;font-size:var(--mantine-font-size-sm);"
-          "font-weight:500;cursor:pointer}"
-          ".flowmc-examples button:hover{background:var(--mantine-primary-color-filled-hover)}</style>")
+          ".flowmc-examples button{padding:0 .9em}" + button_css(".flowmc-examples", "primary-color") + "</style>")
 
 
 def examples_dir() -> Path | None:

@@ -15,9 +15,19 @@ from __future__ import annotations
 from flowmc.ui.palette import PaletteItem
 from flowmc.ui.text import escape_html
 
-__all__ = ["render", "labels", "page_button", "ADD_EVENT"]
+__all__ = ["render", "labels", "page_button", "button_css", "ADD_EVENT"]
 
 ADD_EVENT = "palette-add"  # the page script also drags the buttons that send it
+
+
+def button_css(scope: str, colour: str) -> str:
+    """The look of ``page_button`` buttons inside ``scope`` (a CSS selector): filled with the theme's
+    ``colour`` (``color-gray``, ``primary-color``), as viser's own buttons are."""
+    return (f"{scope} button{{height:2em;border:0;border-radius:var(--mantine-radius-default);"
+            f"background:var(--mantine-{colour}-filled);color:#fff;font:inherit;font-size:var(--mantine-font-size-sm);"
+            f"font-weight:500;cursor:pointer}}{scope} button:hover{{background:var(--mantine-{colour}-filled-hover)}}")
+
+
 # Looks like viser's own folders (a border with the title on it) and gray buttons, in the theme's colours.
 _STYLE = (
     "<style>"
@@ -31,13 +41,10 @@ _STYLE = (
     "border:solid currentColor;border-width:0 2px 2px 0;opacity:.5;transform:rotate(-135deg);vertical-align:.05em}"
     ".flowmc-palette details:not([open]){padding-bottom:.4em}"
     ".flowmc-palette details:not([open]) summary::after{transform:rotate(45deg);vertical-align:.2em}"
-    ".flowmc-palette button{display:block;width:100%;height:2em;margin:0 0 .4em;padding:0 .75em;border:0;"
-    "border-radius:var(--mantine-radius-default);background:var(--mantine-color-gray-filled);color:#fff;"
-    "font:inherit;font-size:var(--mantine-font-size-sm);font-weight:500;cursor:pointer;white-space:nowrap;"
+    ".flowmc-palette button{display:block;width:100%;margin:0 0 .4em;padding:0 .75em;white-space:nowrap;"
     "overflow:hidden;text-overflow:ellipsis;touch-action:none}"
-    ".flowmc-palette button:hover{background:var(--mantine-color-gray-filled-hover)}"
     ".flowmc-palette button:focus-visible{outline:2px solid var(--mantine-primary-color-filled);outline-offset:1px}"
-    "</style>"
+    + button_css(".flowmc-palette", "color-gray") + "</style>"
 )
 
 
