@@ -271,6 +271,8 @@ class _Budgets:
 
         t, k, p3 = worst(g.t), worst(g.k), worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
+        # the normal term helps on an axis where it has the same sign at all three points (its least help)
+        help_up, help_down = worst(g.kt), worst(-g.kt)
         self.window = window
         # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
         self.axes = []
@@ -280,14 +282,19 @@ class _Budgets:
             moving = t[i] > 0
             inv_t = np.where(moving, 1.0 / np.where(moving, t[i], 1.0), 0.0)
             row = {"alpha": np.where(moving, lim.amax[i] * inv_t, np.inf),
-                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t}
+                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t,
+                   "gamma_up": np.maximum(-help_up[i], 0.0) * inv_t,
+                   "gamma_down": np.maximum(-help_down[i], 0.0) * inv_t}
             if window > 0:
                 row.update(jmax=_JERK_SHARE * lim.jmax[i], t_win=t[i] / window, k3=3.0 * k[i], p3=p3[i])
             self.axes.append(row)
 
-    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None,
+                 least: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
-        up to twice the budget within Tj), elsewhere for jumps of up to the budget."""
+        up to twice the budget within Tj), elsewhere for jumps of up to the budget. ``least`` (without a jerk
+        limit only): the speed^2 is at least this on the interval, so a normal term that helps counts that
+        much (else it counts as at rest)."""
         y = level
         up = np.full(len(y), np.inf)
         down = np.full(len(y), np.inf)
@@ -297,8 +304,12 @@ class _Budgets:
                 y_root = y * root
                 widen = None if swing is None else 1.0 + swing
             for row in self.axes:
-                np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
-                np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                if least is None or self.window > 0:
+                    np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
+                    np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                else:
+                    np.minimum(up, row["alpha"] - row["beta_up"] * y + row["gamma_up"] * least, out=up)
+                    np.minimum(down, row["alpha"] - row["beta_down"] * y + row["gamma_down"] * least, out=down)
                 if self.window > 0:
                     t_win = row["t_win"] if widen is None else row["t_win"] * widen
                     coeff = t_win + row["k3"] * root
@@ -315,7 +326,8 @@ def _converged(high: np.ndarray, low: np.ndarray) -> bool:
 
 
 def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
-             node_limit: np.ndarray | None = None, rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
+             node_limit: np.ndarray | None = None, rounds: int = 12,
+             signed: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The fastest profile whose tangential budget on each interval is taken at its own speed there.
 
     T(y) = the scans with budgets taken at the profile y is antitone, so from y = 0 the iterates alternate
@@ -327,6 +339,8 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     if node_limit is not None:
         node_cap = np.minimum(node_cap, node_limit)
     node_cap[stops] = 0.0
+    if signed:
+        return _profile_signed(cap, node_cap, ds, budget_of, rounds)
     high = _scan(node_cap, ds, budget_of(np.zeros_like(cap)))
     low = budget = None
     for _ in range(rounds):
@@ -336,6 +350,31 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
             break
         high = _scan(node_cap, ds, budget_of(np.minimum(cap, np.maximum(low[:-1], low[1:]))))
     assert low is not None and budget is not None, "at least one round"
+    return low, budget
+
+
+def _profile_signed(cap: np.ndarray, node_cap: np.ndarray, ds: np.ndarray, budget_of,
+                    rounds: int) -> tuple[np.ndarray, np.ndarray]:
+    """``_profile`` with normal terms that help counted at the least speed the interval may have.
+
+    A budget now falls with the speed its hurting terms are taken at and grows with the speed its helping
+    terms are taken at. Two profiles are carried: ``low`` takes hurting terms at ``high`` and helping ones
+    at the ``low`` before; ``high`` the other way round. From low = 0 and high planned with every hurting
+    term at rest and every helping one at the cap, lows rise and highs fall, each low between the low
+    before and the high, so its budgets hold for every speed it has: each low is feasible."""
+    def interval(y):
+        return np.minimum(cap, np.maximum(y[:-1], y[1:])), np.minimum(cap, np.minimum(y[:-1], y[1:]))
+
+    high = _scan(node_cap, ds, budget_of(np.zeros_like(cap), least=cap))
+    low = np.zeros_like(node_cap)
+    budget = None
+    for _ in range(rounds):
+        budget = budget_of(interval(high)[0], least=interval(low)[1])
+        low = _scan(node_cap, ds, budget)
+        if _converged(high, low):
+            break
+        high = _scan(node_cap, ds, budget_of(interval(low)[0], least=interval(high)[1]))
+    assert budget is not None, "at least one round"
     return low, budget
 
 
@@ -368,7 +407,9 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     cap = np.minimum(np.min(y_vel.reshape(3, m), axis=0), _RHO * np.min(y_acc.reshape(3, m), axis=0))
     stops = np.searchsorted(u, stop_u)
     if not jerk:
-        y, _ = _profile(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
+        budget_of = _Budgets(geo, m, lim, 0.0)
+        y, _ = min((_profile(cap, stops, ds, budget_of, signed=signed) for signed in (False, True)),
+                   key=lambda profile: float(_node_times(profile[0], ds)[-1]))
         window = 0.0
     else:
         y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
