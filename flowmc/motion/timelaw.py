@@ -21,7 +21,11 @@ of a cumulative sum: fully vectorised. Which cap to use where is settled by iter
 with budgets taken at the speed of a given profile form an antitone map, so its iterates alternate
 around its fixed point; every second iterate used budgets taken at a faster profile and is
 therefore feasible, and they increase towards the fixed point (within about 1 % of TOPP-RA on the
-same curve in benchmarks/planning.py).
+same curve in benchmarks/planning.py). Without a jerk limit the law is also planned with each axis's
+normal term counted with its sign where it helps (T_i a and K_i v^2 of opposite signs: the tool slowing
+into a turn on the axis the turn speeds up), at the least speed the interval may have: TOPP-RA's
+per-interval constraints, linear in (a, v^2), taken as budgets between a low and a high profile
+(``_profile_signed``); the faster of the two plans is kept.
 
 Jerk (``jerk=True``). The profile above, with its budget shared with the jerk terms, is filtered by
 a moving average of length Tj = 2 max_i(amax_i / jmax_i) over the arc length: s_f(t) = (1/Tj) times
@@ -258,7 +262,7 @@ class _Budgets:
 
     Acceleration, per axis: -amax_i <= T_i a + K_i y <= amax_i, so a speed-up may use
     (amax_i - sign(T_i) K_i y) / |T_i| and a slow-down (amax_i + sign(T_i) K_i y) / |T_i|, at their worst
-    over 0 <= y <= Y. Jerk, when filtered over Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share *
+    over 0 <= y <= Y, or over least <= y <= Y where the least speed^2 is given. Jerk, when filtered over Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share *
     jmax_i, with J the largest jump of the acceleration within Tj (the budget, or twice it). Each axis
     takes the worst of every term over the interval's three points (conservative, and three columns
     instead of nine).
@@ -326,8 +330,7 @@ def _converged(high: np.ndarray, low: np.ndarray) -> bool:
 
 
 def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
-             node_limit: np.ndarray | None = None, rounds: int = 12,
-             signed: bool = False) -> tuple[np.ndarray, np.ndarray]:
+             node_limit: np.ndarray | None = None, rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
     """The fastest profile whose tangential budget on each interval is taken at its own speed there.
 
     T(y) = the scans with budgets taken at the profile y is antitone, so from y = 0 the iterates alternate
@@ -339,8 +342,6 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     if node_limit is not None:
         node_cap = np.minimum(node_cap, node_limit)
     node_cap[stops] = 0.0
-    if signed:
-        return _profile_signed(cap, node_cap, ds, budget_of, rounds)
     high = _scan(node_cap, ds, budget_of(np.zeros_like(cap)))
     low = budget = None
     for _ in range(rounds):
@@ -353,27 +354,35 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     return low, budget
 
 
-def _profile_signed(cap: np.ndarray, node_cap: np.ndarray, ds: np.ndarray, budget_of,
-                    rounds: int) -> tuple[np.ndarray, np.ndarray]:
-    """``_profile`` with normal terms that help counted at the least speed the interval may have.
+def _profile_signed(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
+                    rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """``_profile`` with normal terms that help counted at the least speed^2 the interval may have
+    (``_Budgets`` with ``least``): the time law TOPP-RA's per-interval constraints a_i = T_i a + K_i v^2
+    allow, where the tool slows down on an axis whose normal term pulls the other way (Pham and Pham 2018).
 
-    A budget now falls with the speed its hurting terms are taken at and grows with the speed its helping
-    terms are taken at. Two profiles are carried: ``low`` takes hurting terms at ``high`` and helping ones
-    at the ``low`` before; ``high`` the other way round. From low = 0 and high planned with every hurting
-    term at rest and every helping one at the cap, lows rise and highs fall, each low between the low
-    before and the high, so its budgets hold for every speed it has: each low is feasible."""
-    def interval(y):
+    A budget then falls with the speed its hurting terms are taken at and grows with the speed its helping
+    terms are taken at. Two profiles go on from low = 0 and a high planned with every hurting term at rest
+    and every helping one at the cap: the next high takes both at the low, capped by the high before; the
+    next low takes hurting terms at that high and helping ones at the low before, capped by the high. So
+    lows rise and highs fall, each low lies between the low before and its high, and its budgets hold for
+    every speed it has on every interval: each low is feasible. It starts further from the fixed point
+    than ``_profile`` and may end slower (star10, 3dtest), so the caller keeps the faster of the two."""
+    def levels(y):
         return np.minimum(cap, np.maximum(y[:-1], y[1:])), np.minimum(cap, np.minimum(y[:-1], y[1:]))
 
+    node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
+    node_cap[stops] = 0.0
     high = _scan(node_cap, ds, budget_of(np.zeros_like(cap), least=cap))
     low = np.zeros_like(node_cap)
     budget = None
     for _ in range(rounds):
-        budget = budget_of(interval(high)[0], least=interval(low)[1])
-        low = _scan(node_cap, ds, budget)
+        least = levels(low)[1]
+        budget = budget_of(levels(high)[0], least=least)
+        low = _scan(np.minimum(node_cap, high), ds, budget)
         if _converged(high, low):
             break
-        high = _scan(node_cap, ds, budget_of(interval(low)[0], least=interval(high)[1]))
+        most, least = levels(low)
+        high = _scan(np.minimum(node_cap, high), ds, budget_of(most, least=least))
     assert budget is not None, "at least one round"
     return low, budget
 
@@ -408,8 +417,8 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     stops = np.searchsorted(u, stop_u)
     if not jerk:
         budget_of = _Budgets(geo, m, lim, 0.0)
-        y, _ = min((_profile(cap, stops, ds, budget_of, signed=signed) for signed in (False, True)),
-                   key=lambda profile: float(_node_times(profile[0], ds)[-1]))
+        y = min((_profile(cap, stops, ds, budget_of)[0], _profile_signed(cap, stops, ds, budget_of)[0]),
+                key=lambda profile: float(_node_times(profile, ds)[-1]))
         window = 0.0
     else:
         y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
