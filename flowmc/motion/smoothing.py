@@ -15,7 +15,8 @@ across many segments. Here the smoothing works on *runs*, not corners:
    held to its own acceleration limit it passes a right angle about 1.5 times as fast as the
    tangent arc within the same tolerance (LinuxCNC 2.7+ blends by tangent arcs, Ellenberg). Its corner is
    moved out first (``_outside_corners``: the racing line, outside the band before and after the corner,
-   inside at it), so the parabola may be longer and is passed faster. Every other run is replaced
+   inside at it), so the parabola may be longer and is passed faster; where the turn leaves an axis spare
+   and it is quicker, two parabolas, slowing along that axis into the corner. Every other run is replaced
    by a cubic B-spline fitted to the programmed path over the run, with the position, tangent and
    curvature of the path at both ends of the run fixed, so the result is curvature-continuous (G2)
    where it joins the rest of the path and inside.
