@@ -262,10 +262,10 @@ class _Budgets:
 
     Acceleration, per axis: -amax_i <= T_i a + K_i y <= amax_i, so a speed-up may use
     (amax_i - sign(T_i) K_i y) / |T_i| and a slow-down (amax_i + sign(T_i) K_i y) / |T_i|, at their worst
-    over 0 <= y <= Y, or over least <= y <= Y where the least speed^2 is given. Jerk, when filtered over Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share *
-    jmax_i, with J the largest jump of the acceleration within Tj (the budget, or twice it). Each axis
-    takes the worst of every term over the interval's three points (conservative, and three columns
-    instead of nine).
+    over 0 <= y <= Y, or over least <= y <= Y where the least speed^2 is given. Jerk, when filtered over
+    Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share * jmax_i, with J the largest jump of the
+    acceleration within Tj (the budget, or twice it). Each axis takes the worst of every term over the
+    interval's three points (conservative, and three columns instead of nine).
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
