@@ -635,15 +635,16 @@ def _corner_parabolas(corner, u_in, u_out, room, v_full, apex, limits: PathLimit
     arc within the same tolerance.
 
     Where the turn leaves an axis spare (a 60 degree zigzag along X: only Y turns), the tool may also slow
-    down along m = u_in + u_out for the first half and speed up again for the second, with lambda m added to
-    and taken from the acceleration, lambda as large as every axis allows: two parabolas, whose middle
+    down along w = u_in + u_out for the first half and speed up again for the second, with lambda w taken from
+    and added to the acceleration, lambda as large as every axis allows: two parabolas, whose middle
     cuts in (1 - f) times as far at the same entry speed (f = lambda m, at most _SPLIT_MOST; the
     zigzag: f = 0.58, entered 1.54 times as fast within the same apex). Their trim is
     v^2 m (1 - f / 2) / 2. They are laid in where they let the corner be entered faster (the apex or the
-    room binds, not the feed); the time law counts the normal term helping the slowing axis
-    (flowmc.motion.timelaw). Returns the trims, the coefficients (n, 2, 4, 3) of each blend's pieces in
-    the curve parameter x from each piece's start (the first piece p = start + u_in x + c2 x^2 over the
-    whole blend, [0, W], where the blend is one parabola) and whether it is split at its middle (W / 2).
+    room binds, not the feed) and ``_corner_time`` finds them _SPLIT_GAIN as quick; the time law counts the
+    normal term helping the slowing axis (flowmc.motion.timelaw). Returns the trims, the coefficients
+    (n, 2, 4, 3) of each blend's pieces in the curve parameter x from each piece's start (the first piece
+    p = start + u_in x + c2 x^2 over the whole blend where it is one parabola), whether it is split at its
+    middle, and its length W = v^2 m in curve parameter (each piece W / 2 where split).
     """
     du = u_out - u_in
     mean = u_in + u_out
