@@ -21,7 +21,11 @@ of a cumulative sum: fully vectorised. Which cap to use where is settled by iter
 with budgets taken at the speed of a given profile form an antitone map, so its iterates alternate
 around its fixed point; every second iterate used budgets taken at a faster profile and is
 therefore feasible, and they increase towards the fixed point (within about 1 % of TOPP-RA on the
-same curve in benchmarks/planning.py).
+same curve in benchmarks/planning.py). Without a jerk limit the law is also planned with each axis's
+normal term counted with its sign where it helps (T_i a and K_i v^2 of opposite signs: the tool slowing
+into a turn on the axis the turn speeds up), at the least speed the interval may have: TOPP-RA's
+per-interval constraints, linear in (a, v^2), taken as budgets between a low and a high profile
+(``_profile_signed``); the faster of the two plans is kept.
 
 Jerk (``jerk=True``). The profile above, with its budget shared with the jerk terms, is filtered by
 a moving average of length Tj = 2 max_i(amax_i / jmax_i) over the arc length: s_f(t) = (1/Tj) times
@@ -258,10 +262,10 @@ class _Budgets:
 
     Acceleration, per axis: -amax_i <= T_i a + K_i y <= amax_i, so a speed-up may use
     (amax_i - sign(T_i) K_i y) / |T_i| and a slow-down (amax_i + sign(T_i) K_i y) / |T_i|, at their worst
-    over 0 <= y <= Y. Jerk, when filtered over Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share *
-    jmax_i, with J the largest jump of the acceleration within Tj (the budget, or twice it). Each axis
-    takes the worst of every term over the interval's three points (conservative, and three columns
-    instead of nine).
+    over 0 <= y <= Y, or over least <= y <= Y where the least speed^2 is given. Jerk, when filtered over
+    Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share * jmax_i, with J the largest jump of the
+    acceleration within Tj (the budget, or twice it). Each axis takes the worst of every term over the
+    interval's three points (conservative, and three columns instead of nine).
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
@@ -271,6 +275,8 @@ class _Budgets:
 
         t, k, p3 = worst(g.t), worst(g.k), worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
+        # the normal term helps on an axis where it has the same sign at all three points (its least help)
+        help_up, help_down = worst(g.kt), worst(-g.kt)
         self.window = window
         # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
         self.axes = []
@@ -280,14 +286,19 @@ class _Budgets:
             moving = t[i] > 0
             inv_t = np.where(moving, 1.0 / np.where(moving, t[i], 1.0), 0.0)
             row = {"alpha": np.where(moving, lim.amax[i] * inv_t, np.inf),
-                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t}
+                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t,
+                   "gamma_up": np.maximum(-help_up[i], 0.0) * inv_t,
+                   "gamma_down": np.maximum(-help_down[i], 0.0) * inv_t}
             if window > 0:
                 row.update(jmax=_JERK_SHARE * lim.jmax[i], t_win=t[i] / window, k3=3.0 * k[i], p3=p3[i])
             self.axes.append(row)
 
-    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None,
+                 least: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
-        up to twice the budget within Tj), elsewhere for jumps of up to the budget."""
+        up to twice the budget within Tj), elsewhere for jumps of up to the budget. ``least`` (without a jerk
+        limit only): the speed^2 is at least this on the interval, so a normal term that helps counts that
+        much (else it counts as at rest)."""
         y = level
         up = np.full(len(y), np.inf)
         down = np.full(len(y), np.inf)
@@ -297,8 +308,12 @@ class _Budgets:
                 y_root = y * root
                 widen = None if swing is None else 1.0 + swing
             for row in self.axes:
-                np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
-                np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                if least is None or self.window > 0:
+                    np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
+                    np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                else:
+                    np.minimum(up, row["alpha"] - row["beta_up"] * y + row["gamma_up"] * least, out=up)
+                    np.minimum(down, row["alpha"] - row["beta_down"] * y + row["gamma_down"] * least, out=down)
                 if self.window > 0:
                     t_win = row["t_win"] if widen is None else row["t_win"] * widen
                     coeff = t_win + row["k3"] * root
@@ -339,6 +354,39 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     return low, budget
 
 
+def _profile_signed(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
+                    rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """``_profile`` with normal terms that help counted at the least speed^2 the interval may have
+    (``_Budgets`` with ``least``): the time law TOPP-RA's per-interval constraints a_i = T_i a + K_i v^2
+    allow, where the tool slows down on an axis whose normal term pulls the other way (Pham and Pham 2018).
+
+    A budget then falls with the speed its hurting terms are taken at and grows with the speed its helping
+    terms are taken at. Two profiles go on from low = 0 and a high planned with every hurting term at rest
+    and every helping one at the cap: the next high takes both at the low, capped by the high before; the
+    next low takes hurting terms at that high and helping ones at the low before, capped by the high. So
+    lows rise and highs fall, each low lies between the low before and its high, and its budgets hold for
+    every speed it has on every interval: each low is feasible. It starts further from the fixed point
+    than ``_profile`` and may end slower (star10, 3dtest), so the caller keeps the faster of the two."""
+    def levels(y):
+        return np.minimum(cap, np.maximum(y[:-1], y[1:])), np.minimum(cap, np.minimum(y[:-1], y[1:]))
+
+    node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
+    node_cap[stops] = 0.0
+    high = _scan(node_cap, ds, budget_of(np.zeros_like(cap), least=cap))
+    low = np.zeros_like(node_cap)
+    budget = None
+    for _ in range(rounds):
+        least = levels(low)[1]
+        budget = budget_of(levels(high)[0], least=least)
+        low = _scan(np.minimum(node_cap, high), ds, budget)
+        if _converged(high, low):
+            break
+        most, least = levels(low)
+        high = _scan(np.minimum(node_cap, high), ds, budget_of(most, least=least))
+    assert budget is not None, "at least one round"
+    return low, budget
+
+
 def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
                   feed_of_u, lim: PathLimits, *, jerk: bool = False, mend_swings: bool = True) -> TimeLaw:
     """The fastest time law on ``curve`` under ``lim`` (see the module docstring).
@@ -368,7 +416,9 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     cap = np.minimum(np.min(y_vel.reshape(3, m), axis=0), _RHO * np.min(y_acc.reshape(3, m), axis=0))
     stops = np.searchsorted(u, stop_u)
     if not jerk:
-        y, _ = _profile(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
+        budget_of = _Budgets(geo, m, lim, 0.0)
+        y = min((_profile(cap, stops, ds, budget_of)[0], _profile_signed(cap, stops, ds, budget_of)[0]),
+                key=lambda profile: float(_node_times(profile, ds)[-1]))
         window = 0.0
     else:
         y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
