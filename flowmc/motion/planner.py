@@ -73,13 +73,10 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
     sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
 
-    def trapezoid_time(curve):
-        law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment,
-                            lambda u: sm.seg_feed[curve.segment_at(u)], lim, jerk=False, mend_swings=True)
-        return float(np.sum(2.0 * np.diff(law.s) / np.maximum(np.sqrt(law.y[1:]) + np.sqrt(law.y[:-1]), 1e-300)))
-
-    if not jerk:
-        sm = faster_reshaped(sm, path, lim, tolerance, trapezoid_time)
+    if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
+        sm = faster_reshaped(sm, path, lim, tolerance, lambda curve: plan_time_law(
+            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, lambda u: sm.seg_feed[curve.segment_at(u)], lim,
+            jerk=False, mend_swings=True))
     curve = sm.curve
 
     def feed_of_u(u):

@@ -1,33 +1,32 @@
-"""Curved stretches reshaped within the tolerance band so that per-axis acceleration limits allow more speed.
+"""Programmed arcs reshaped within the tolerance band so that per-axis acceleration limits allow more speed.
 
-Why: on a curve the speed is held near v = sqrt(A / (kappa max_i |n_i|)): the normal acceleration v^2 kappa
-loads the axis the normal points along. A circle loads one axis fully wherever its normal is parallel to an
-axis and both only partly (1/sqrt 2) where the normal is diagonal, so a time law on the circle speeds up and
-slows down four times a turn. A curve that is flatter where the normal is parallel to an axis and sharper
-where it is diagonal (a rounded square) is passed at one steady, higher speed: up to 1/sqrt(0.900) = 1.054
-times the circle's when the band allows it (about r/190 each way). Where a fitted run of micro-segments
-ripples in curvature, the same step evens the ripple out.
+Why: on an arc the speed is held near v = sqrt(1 / (kappa max_i |N_i| / A_i)): the normal acceleration
+v^2 kappa loads the axis the normal N points along. A circle loads one axis fully wherever its normal is
+parallel to an axis and each only 1/sqrt(2) where the normal is diagonal, so its time law slows down four times
+a turn. A curve flatter where the normal is parallel to an axis and sharper where it is diagonal (a rounded
+square) is passed at a steadier, higher speed: up to 1/sqrt(0.900) = 1.054 times the circle's at constant speed
+when the band allows it (about r/190 each way); a 0.05 mm band gives about half of that at r = 18 mm, and the
+time law on the circle already takes part of it by speeding up at the diagonals (3dtest's circles: 1.2 %).
 
-How: along each stretch whose speed the curvature bounds, the curve p(s) is offset along its principal
-normal N by d(s), within the band the programmed path allows on each side (both ways: every point of the
-new curve within the tolerance of the path, every sampled point of the path within it of the new curve).
-To first order the new curvature is kappa + kappa^2 d + d''. A linear program (scipy's HiGHS) chooses d to
-lower the per-axis load kappa max_i |N_i| / A_i by a factor (1 - g) below its largest value within a
-quarter turn, with g as large as the time spent there allows and changing slowly along the stretch; d and
-d' are zero at the stretch's ends, so it joins the rest of the curve with the same position and tangent.
-The offset curve is a clamped cubic spline through the offset points on the curve's own parameter, checked
-against the programmed path both ways; a stretch that misses the tolerance is tried with half the offset,
-then left as it was.
+How: along each curvature-bound stretch of a programmed arc, the curve p(s) is offset along its principal
+normal N by d(s), within the band the programmed path allows (both ways: each point of the new curve within
+the tolerance of the path near it, each point of the path within it of the curve point nearest it). To first
+order the new curvature is kappa + kappa^2 d + d''. A linear program (scipy's HiGHS) chooses d to lower the
+per-axis load kappa max_i |N_i| / A_i by a share g below its largest value within pi/8 of turning, g weighted by
+the time spent there and changing slowly along the stretch, with a small price on |d''| (without it the program
+picks any d the constraints at its points allow, rippling between them); d and d' are zero at the stretch's
+ends, so it joins its neighbours with the same position and tangent. The offset curve is a clamped cubic spline
+through the offset points on the curve's own parameter, checked both ways against the programmed path (a
+stretch that misses the tolerance is tried with half the offset, then left as it was). ``faster_reshaped``
+keeps the stretches the time law passes faster, and only if the whole plan is faster.
 
-This is the minimum-time, band-constrained path planning of the literature, with the geometry free within
-the tolerance: Lavernhe, Tournier and Lartigue, "Optimization of 5-axis high-speed machining using a
-surface based approach", Computer-Aided Design 40 (2008) (the machine's kinematic limits drive the tool
-path inside the tolerance), and Beudaert, Lavernhe and Tournier, "Feedrate interpolation with kinematic
-constraints for high speed machining" / "Direct trajectory interpolation on the surface using an open CNC"
-(2012-2014), and Yang and Yuen's corner smoothing under per-axis limits (Int. J. Machine Tools and
-Manufacture 2017), which all let the axis limits, not the programmed shape alone, shape the curve; here
-the curve's normal offset is the variable, as in Tajima and Sencer's kinematic corner smoothing (2016),
-and the objective is the per-axis load rather than a geometric smoothness.
+Literature: the axis limits, not the programmed shape, choose the curve within the tolerance, as in Tajima and
+Sencer, "Kinematic corner smoothing for high speed machine tools", Int. J. Machine Tools and Manufacture 108
+(2016), and in the racing line of minimum-time vehicle manoeuvring (Kapania, Subosits and Gerdes, J. Dynamic
+Systems, Measurement and Control 138 (2016) 091005); per-axis rather than path limits as in Beudaert,
+Lavernhe and Tournier, "Feedrate interpolation with axis jerk constraints on 5-axis NURBS and G1 tool path",
+Int. J. Machine Tools and Manufacture 57 (2012). Fitted runs of micro-segments (flowmc.motion.smoothing) are
+not reshaped: on 3D_Chips that gained 0.26 s of 146.6 but its samples then reached 1.0004 amax.
 
 Only for acceleration-limited (trapezoid) plans: the joins are tangent-continuous, not curvature-continuous.
 """
@@ -49,41 +48,63 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.path import Path
 from flowmc.motion.ranges import window_max
 from flowmc.motion.smoothing import _TOL_SHARE, Smoothed, raw_curve
+from flowmc.motion.timelaw import TimeLaw
 
 __all__ = ["reshape_curved", "faster_reshaped"]
 
 _SCAN = 0.5  # mm between the samples that find curvature-bound stretches
 _BOUND = 0.95  # a sample is curvature-bound where sqrt(A / load) is below this share of the speed cap
 _MIN_LEN = 2.0  # mm: shorter stretches are left alone
+_PART = 40.0  # mm: longer ones are reshaped in parts about this long
 _TURN_STEP = 0.08  # radians of turning between the linear program's points at most
 _STEP_MAX = 0.5  # mm between them at most
 _STEP_MIN = 0.005  # and at least
-_QUARTER = math.pi / 4  # the load is lowered below its largest value within this much turning either way
+_REACH_TURN = math.pi / 8  # the load is lowered below its largest value within this much turning either way
 _WINDOW_MAX = 40.0  # mm: and at most this far either way
 _GAIN_MAX = 0.3  # most share the load is lowered by
-_GAIN_SLOPE = 0.05  # most change of that share per quarter turn (so the speed can follow it)
+_GAIN_SLOPE = 0.05  # most change of that share per 2 _REACH_TURN of turning (so the speed can follow it)
+_BENDING = 0.05  # the price of bending the offset, as a share of the load it may lower
 _BAND_SHARE = 0.96  # of the tolerance the linear program plans for; the check holds the whole tolerance
 _CHECK_STEP = 0.005  # mm between the points the band and the deviation are worked out from
 _MARGIN = 1.0  # mm of path either side of a stretch that its check takes in
 
 
 def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: float,
-                    duration: Callable[[PlannedCurve], float]) -> Smoothed:
-    """``sm`` with its programmed arcs reshaped (``reshape_curved``) if that makes ``duration`` (the time law's
-    time along a curve) shorter; ``sm`` itself otherwise."""
+                    law_of: Callable[[PlannedCurve], TimeLaw]) -> Smoothed:
+    """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``law_of``) passes faster than
+    before, if the whole is faster too; ``sm`` itself otherwise."""
     raw, _ = raw_curve(path)
     tol_fit = _TOL_SHARE * (tolerance - float(np.max(limits.amax[list(limits.cols)])) * limits.period**2 / 8.0)
-    curve, dev = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
-    if curve is sm.curve or duration(curve) >= duration(sm.curve):
+    found = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
+    if not found:
         return sm
-    return replace(sm, curve=curve, deviation=max(sm.deviation, dev))
+    law = law_of(sm.curve)
+    before = _clock(law, [sm.curve.length])[0]
+    for _ in range(3):  # all found, then those that gained (a stretch's neighbours change speed too), then again
+        curve = _splice(sm.curve, found)
+        new = law_of(curve)
+        faster = [f for f in found if np.diff(_clock(new, f[3]))[0] < np.diff(_clock(law, f[3]))[0]]
+        if len(faster) == len(found) and _clock(new, [curve.length])[0] < before:
+            return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found)))
+        if not faster:
+            break
+        found = faster
+    return sm
+
+
+def _clock(law: TimeLaw, u) -> np.ndarray:
+    """The time law's time (waits left out) at curve parameters u."""
+    v = np.sqrt(np.maximum(law.y, 0.0))
+    t = np.r_[0.0, np.cumsum(2.0 * np.diff(law.s) / np.maximum(v[1:] + v[:-1], 1e-300))]
+    return np.interp(np.asarray(u, dtype=float), law.u, t)
 
 
 def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, seg_feed: np.ndarray,
-                   limits: PathLimits, tol: float) -> tuple[PlannedCurve, float]:
-    """``curve`` with its curvature-bound stretches reshaped within ``tol`` of the programmed path ``raw``
+                   limits: PathLimits, tol: float) -> list:
+    """Curvature-bound stretches of ``curve`` reshaped within ``tol`` of the programmed path ``raw``
     (parameterised by programmed arc length); ``seg_feed``: each programmed segment's path-speed cap.
-    Returns the curve and the largest deviation of a reshaped stretch (0 if none)."""
+    Returns (ka, kb, spline, (ua, ub), deviation) per stretch reshaped: the spline, on the curve's own
+    parameter from ua, replaces intervals ka .. kb."""
     cols = list(limits.cols)
     inv_a = np.zeros(3)
     inv_a[cols] = 1.0 / limits.amax[cols]
@@ -94,7 +115,7 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
     tangent = curve.evaluate(u, 1)[1]
     cap = np.minimum(seg_feed[curve.segment_at(u)], limits.along(tangent)[0])
     bound = (np.sqrt(1.0 / np.maximum(load, 1e-300)) < _BOUND * cap) & (curve.kind[curve.interval_at(u)] == ARC)
-    # stretches: runs of bound samples on arcs, cut at stops, ends snapped inwards to the curve's interval boundaries
+    # stretches: runs of bound samples on arcs, cut at stops, snapped to the curve's interval boundaries
     edges = np.flatnonzero(np.diff(np.r_[0, bound.astype(int), 0]))
     stops = np.unique(np.asarray(stop_u, dtype=float))
     pieces = []
@@ -105,17 +126,19 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
             ka, kb = (int(k) for k in curve.interval_at(np.array([lo, hi])))
             ka += int(curve.u0[ka] < lo - _SCAN)  # intervals that reach well past the bound samples stay
             kb -= int(curve.u1[kb] > hi + _SCAN)
-            if kb >= ka and curve.u1[kb] - curve.u0[ka] >= _MIN_LEN:
-                pieces.append((ka, kb))
-    if not pieces:
-        return curve, 0.0
-    replaced, worst = [], 0.0
+            if kb < ka or curve.u1[kb] - curve.u0[ka] < _MIN_LEN:
+                continue
+            # long stretches in parts of about _PART mm (each kept or not on its own), cut between intervals
+            parts = max(1, int(round((curve.u1[kb] - curve.u0[ka]) / _PART)))
+            cut = np.searchsorted(curve.u0[ka:kb + 1], np.linspace(curve.u0[ka], curve.u1[kb], parts + 1)[1:-1]) + ka
+            bounds = np.unique(np.r_[ka, cut, kb + 1])
+            pieces += [(int(x), int(y) - 1) for x, y in zip(bounds[:-1], bounds[1:])]
+    found = []
     for ka, kb in pieces:
         got = _reshape_stretch(curve, raw, ka, kb, inv_a, tol)
         if got is not None:
-            replaced.append((ka, kb, got[0]))
-            worst = max(worst, got[1])
-    return (_splice(curve, replaced), worst) if replaced else (curve, 0.0)
+            found.append((ka, kb, got[0], (float(curve.u0[ka]), float(curve.u1[kb])), got[1]))
+    return found
 
 
 def _curvature(curve: PlannedCurve, u: np.ndarray, within=None) -> tuple[np.ndarray, np.ndarray]:
@@ -165,14 +188,12 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     near = cKDTree(around)
     lo, hi = _band(p, normal, d1 / speed[:, None], around, near, programmed, _BAND_SHARE * tol)
     lo[:2] = hi[:2] = lo[-2:] = hi[-2:] = 0.0
-    if np.any(lo > hi):
-        return None
     turn = np.r_[0.0, np.cumsum(0.5 * (kappa[1:] + kappa[:-1]) * np.diff(s))]
-    lo_w = np.maximum(np.searchsorted(turn, turn - _QUARTER), np.searchsorted(s, s - _WINDOW_MAX))
-    hi_w = np.minimum(np.searchsorted(turn, turn + _QUARTER, side="right"),
+    lo_w = np.maximum(np.searchsorted(turn, turn - _REACH_TURN), np.searchsorted(s, s - _WINDOW_MAX))
+    hi_w = np.minimum(np.searchsorted(turn, turn + _REACH_TURN, side="right"),
                       np.searchsorted(s, s + _WINDOW_MAX, side="right")) - 1
     ref = window_max(load, lo_w, np.maximum(hi_w, lo_w))
-    # variables: d_0 .. d_n-1, g_0 .. g_n-1; rows: load_k + m_k (kappa_k^2 d_k + (D2 d)_k) + g_k ref_k <= ref_k
+    # variables: d_0 .. d_n-1, g_0 .. g_n-1, e_0 .. e_n-1; rows: load_k + m_k (kappa_k^2 d_k + (D2 d)_k) <= (1 - g_k) ref_k
     hm, hp = np.diff(s)[:-1], np.diff(s)[1:]
     k = np.arange(1, n - 1)
     c_lo, c_hi = 2.0 / (hm * (hm + hp)), 2.0 / (hp * (hm + hp))
@@ -181,20 +202,29 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     vals = np.concatenate([m[k] * c_lo, -m[k] * (c_lo + c_hi), m[k] * c_hi, m[k] * kappa[k] ** 2, ref[k]])
     rhs = ref[k] - load[k]
     # the share changes slowly: |g_k+1 - g_k| <= slope * turning between them (and a little per mm)
-    step = _GAIN_SLOPE * (np.diff(turn) / (2 * _QUARTER) + np.diff(s) / (4 * _WINDOW_MAX))
+    step = _GAIN_SLOPE * (np.diff(turn) / (2 * _REACH_TURN) + np.diff(s) / (4 * _WINDOW_MAX))
     j = np.arange(n - 1)
     r0 = n - 2
     rows = np.concatenate([rows, r0 + j, r0 + j, r0 + n - 1 + j, r0 + n - 1 + j])
     cols = np.concatenate([cols, n + j + 1, n + j, n + j, n + j + 1])
     vals = np.concatenate([vals, np.ones(n - 1), -np.ones(n - 1), np.ones(n - 1), -np.ones(n - 1)])
     rhs = np.concatenate([rhs, step, step])
-    a_ub = coo_matrix((vals, (rows, cols)), shape=(len(rhs), 2 * n)).tocsr()
+    # e_k >= |(D2 d)_k|, priced at _BENDING of what lowering the load by that much would gain: d bends only
+    # where that pays (a linear program would otherwise pick any d, rippling between its points)
+    r1 = r0 + 2 * (n - 1)
+    e_at = 2 * n + k
+    for sign, r in ((1.0, r1), (-1.0, r1 + n - 2)):
+        rows = np.concatenate([rows, *[r + k - 1] * 4])
+        cols = np.concatenate([cols, k - 1, k, k + 1, e_at])
+        vals = np.concatenate([vals, sign * c_lo, -sign * (c_lo + c_hi), sign * c_hi, -np.ones(n - 2)])
+    rhs = np.concatenate([rhs, np.zeros(2 * (n - 2))])
+    a_ub = coo_matrix((vals, (rows, cols)), shape=(len(rhs), 3 * n)).tocsr()
     weight = np.gradient(s) * np.sqrt(np.maximum(ref, 1e-300))  # time ~ ds sqrt(load)
-    cost = np.r_[np.zeros(n), -weight]
-    bounds = np.c_[np.r_[lo, np.zeros(n)], np.r_[hi, np.full(n, _GAIN_MAX)]]
-    bounds[n:n + 2, 1] = bounds[2 * n - 2:, 1] = 0.0
+    cost = np.r_[np.zeros(n), -weight, _BENDING * weight * m / np.maximum(ref, 1e-300)]
+    bounds = np.c_[np.r_[lo, np.zeros(2 * n)], np.r_[hi, np.full(n, _GAIN_MAX), np.full(n, np.inf)]]
+    bounds[n:n + 2, 1] = bounds[2 * n - 2:2 * n, 1] = 0.0
     res = linprog(cost, A_ub=a_ub, b_ub=rhs, bounds=bounds, method="highs")
-    if res.status != 0 or -res.fun < 1e-3 * float(weight.sum()) * _GAIN_SLOPE:
+    if res.status != 0 or float(weight @ res.x[n:2 * n]) < 1e-3 * float(weight.sum()) * _GAIN_SLOPE:
         return None
     d = res.x[:n]
     for share in (1.0, 0.5):
@@ -250,7 +280,7 @@ def _splice(curve: PlannedCurve, replaced) -> PlannedCurve:
     parameter, so nothing else moves)."""
     parts: dict[str, list] = {name: [] for name in (*_FIELDS, "u0", "u1", "pu0", "prate")}
     prev = 0
-    for ka, kb, spline in replaced:
+    for ka, kb, spline, *_ in replaced:
         for name in parts:
             parts[name].append(getattr(curve, name)[prev:ka])
         ua = float(curve.u0[ka])
