@@ -55,17 +55,19 @@ __all__ = ["reshape_curved", "faster_reshaped"]
 _SCAN = 0.5  # mm between the samples that find curvature-bound stretches
 _BOUND = 0.95  # a sample is curvature-bound where sqrt(A / load) is below this share of the speed cap
 _MIN_LEN = 2.0  # mm: shorter stretches are left alone
+_MIN_TURN = 1.5 * math.pi  # and so are arcs turning less: with both ends held (d = d' = 0) too little is left
+# to reshape (the half-turns of benchmarks/planning.py's lines+arcs gained nothing, at 6 s of CPU for 100 of them)
 _PART = 40.0  # mm: longer ones are reshaped in parts about this long
 _TURN_STEP = 0.08  # radians of turning between the linear program's points at most
 _STEP_MAX = 0.5  # mm between them at most
-_STEP_MIN = 0.005  # and at least
+_STEP_MIN = 0.02  # and at least (the step their spacing is worked out at)
 _REACH_TURN = math.pi / 8  # the load is lowered below its largest value within this much turning either way
 _WINDOW_MAX = 40.0  # mm: and at most this far either way
 _GAIN_MAX = 0.3  # most share the load is lowered by
 _GAIN_SLOPE = 0.05  # most change of that share per 2 _REACH_TURN of turning (so the speed can follow it)
 _BENDING = 0.05  # the price of bending the offset, as a share of the load it may lower
 _BAND_SHARE = 0.96  # of the tolerance the linear program plans for; the check holds the whole tolerance
-_CHECK_STEP = 0.005  # mm between the points the band and the deviation are worked out from
+_CHECK_STEP = 0.01  # mm between the points the band and the deviation are worked out from
 _MARGIN = 1.0  # mm of path either side of a stretch that its check takes in
 
 
@@ -126,7 +128,8 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
             ka, kb = (int(k) for k in curve.interval_at(np.array([lo, hi])))
             ka += int(curve.u0[ka] < lo - _SCAN)  # intervals that reach well past the bound samples stay
             kb -= int(curve.u1[kb] > hi + _SCAN)
-            if kb < ka or curve.u1[kb] - curve.u0[ka] < _MIN_LEN:
+            turned = float(np.sum(np.abs(curve.dphi[ka:kb + 1]) * (curve.u1[ka:kb + 1] - curve.u0[ka:kb + 1])))
+            if kb < ka or curve.u1[kb] - curve.u0[ka] < _MIN_LEN or turned < _MIN_TURN:
                 continue
             # long stretches in parts of about _PART mm (each kept or not on its own), cut between intervals
             parts = max(1, int(round((curve.u1[kb] - curve.u0[ka]) / _PART)))
@@ -266,7 +269,7 @@ def _deviation(spline: CubicSpline, ua: float, ub: float, curve: PlannedCurve, n
                programmed: np.ndarray) -> float:
     """Largest distance, both ways, between the reshaped stretch (with a little of the curve either side) and
     the programmed path it stands for, both as points _CHECK_STEP apart: distances to the nearest point, each
-    at most sqrt(d^2 + (step/2)^2) over the distance to the polyline through them (6e-5 mm at 0.05 mm)."""
+    at most sqrt(d^2 + (step/2)^2) over the distance to the polyline through them (3e-4 mm at 0.05 mm)."""
     pts = np.vstack([_dense(curve.points, max(0.0, ua - _MARGIN), ua), _dense(spline, 0.0, ub - ua),
                      _dense(curve.points, ub, min(curve.length, ub + _MARGIN))])
     return max(float(near.query(pts)[0].max()), float(cKDTree(pts).query(programmed)[0].max()))
