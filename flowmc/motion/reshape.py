@@ -86,8 +86,10 @@ def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: flo
         curve = _splice(sm.curve, found)
         new = law_of(curve)
         faster = [f for f in found if np.diff(_clock(new, f[3]))[0] < np.diff(_clock(law, f[3]))[0]]
-        if len(faster) == len(found) and _clock(new, [curve.length])[0] < before:
-            return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found)))
+        if len(faster) == len(found):
+            if _clock(new, [curve.length])[0] < before:
+                return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found)))
+            break
         if not faster:
             break
         found = faster
