@@ -25,6 +25,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
 from flowmc.motion.path import Path
 from flowmc.motion.pieces import _check_axes
+from flowmc.motion.reshape import faster_reshaped
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
 from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law, sampled_jerk
@@ -71,6 +72,11 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     jerk = profile == "scurve"
     _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
     sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
+
+    if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
+        sm = faster_reshaped(sm, path, lim, tolerance, lambda curve: plan_time_law(
+            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, lambda u: sm.seg_feed[curve.segment_at(u)], lim,
+            jerk=False, mend_swings=True))
     curve = sm.curve
 
     def feed_of_u(u):

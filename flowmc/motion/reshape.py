@@ -1,0 +1,306 @@
+"""Programmed arcs reshaped within the tolerance band so that per-axis acceleration limits allow more speed.
+
+Why: on an arc the speed is held near v = sqrt(1 / (kappa max_i |N_i| / A_i)): the normal acceleration
+v^2 kappa loads the axis the normal N points along. A circle loads one axis fully wherever its normal is
+parallel to an axis and each only 1/sqrt(2) where the normal is diagonal, so its time law slows down four times
+a turn. A curve flatter where the normal is parallel to an axis and sharper where it is diagonal (a rounded
+square) is passed at a steadier, higher speed: up to 1/sqrt(0.900) = 1.054 times the circle's at constant speed
+when the band allows it (about r/190 each way); a 0.05 mm band gives about half of that at r = 18 mm, and the
+time law on the circle already takes part of it by speeding up at the diagonals (3dtest's circles: 1.2 %).
+
+How: along each curvature-bound stretch of a programmed arc, the curve p(s) is offset along its principal
+normal N by d(s), within the band the programmed path allows (both ways: each point of the new curve within
+the tolerance of the path near it, each point of the path within it of the curve point nearest it). To first
+order the new curvature is kappa + kappa^2 d + d''. A linear program (scipy's HiGHS) chooses d to lower the
+per-axis load kappa max_i |N_i| / A_i by a share g below its largest value within pi/8 of turning, g weighted by
+the time spent there and changing slowly along the stretch, with a small price on |d''| (without it the program
+picks any d the constraints at its points allow, rippling between them); d and d' are zero at the stretch's
+ends, so it joins its neighbours with the same position and tangent. The offset curve is a clamped cubic spline
+through the offset points on the curve's own parameter, checked both ways against the programmed path (a
+stretch that misses the tolerance is tried with half the offset, then left as it was). ``faster_reshaped``
+keeps the stretches the time law passes faster, and only if the whole plan is faster.
+
+Literature: the axis limits, not the programmed shape, choose the curve within the tolerance, as in Tajima and
+Sencer, "Kinematic corner smoothing for high speed machine tools", Int. J. Machine Tools and Manufacture 108
+(2016), and in the racing line of minimum-time vehicle manoeuvring (Kapania, Subosits and Gerdes, J. Dynamic
+Systems, Measurement and Control 138 (2016) 091005); per-axis rather than path limits as in Beudaert,
+Lavernhe and Tournier, "Feedrate interpolation with axis jerk constraints on 5-axis NURBS and G1 tool path",
+Int. J. Machine Tools and Manufacture 57 (2012). Fitted runs of micro-segments (flowmc.motion.smoothing) are
+not reshaped: on 3D_Chips that gained 0.26 s of 146.6 but its samples then reached 1.0004 amax.
+
+Only for acceleration-limited (trapezoid) plans: the joins are tangent-continuous, not curvature-continuous.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Callable
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.optimize import linprog
+from scipy.sparse import coo_matrix
+from scipy.spatial import cKDTree
+
+from flowmc.motion.curve import ARC, PlannedCurve
+from flowmc.motion.limits import PathLimits
+from flowmc.motion.path import Path
+from flowmc.motion.ranges import window_max
+from flowmc.motion.smoothing import _TOL_SHARE, Smoothed, raw_curve
+from flowmc.motion.timelaw import TimeLaw
+
+__all__ = ["reshape_curved", "faster_reshaped"]
+
+_SCAN = 0.5  # mm between the samples that find curvature-bound stretches
+_BOUND = 0.95  # a sample is curvature-bound where sqrt(A / load) is below this share of the speed cap
+_MIN_LEN = 2.0  # mm: shorter stretches are left alone
+_MIN_TURN = 1.5 * math.pi  # and so are arcs turning less: with both ends held (d = d' = 0) too little is left
+# to reshape (the half-turns of benchmarks/planning.py's lines+arcs gained nothing, at 6 s of CPU for 100 of them)
+_PART = 40.0  # mm: longer ones are reshaped in parts about this long
+_TURN_STEP = 0.08  # radians of turning between the linear program's points at most
+_STEP_MAX = 0.5  # mm between them at most
+_STEP_MIN = 0.02  # and at least (the step their spacing is worked out at)
+_REACH_TURN = math.pi / 8  # the load is lowered below its largest value within this much turning either way
+_WINDOW_MAX = 40.0  # mm: and at most this far either way
+_GAIN_MAX = 0.3  # most share the load is lowered by
+_GAIN_SLOPE = 0.05  # most change of that share per 2 _REACH_TURN of turning (so the speed can follow it)
+_BENDING = 0.05  # the price of bending the offset, as a share of the load it may lower
+_BAND_SHARE = 0.96  # of the tolerance the linear program plans for; the check holds the whole tolerance
+_CHECK_STEP = 0.01  # mm between the points the band and the deviation are worked out from
+_MARGIN = 1.0  # mm of path either side of a stretch that its check takes in
+
+
+def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: float,
+                    law_of: Callable[[PlannedCurve], TimeLaw]) -> Smoothed:
+    """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``law_of``) passes faster than
+    before, if the whole is faster too; ``sm`` itself otherwise."""
+    raw, _ = raw_curve(path)
+    tol_fit = _TOL_SHARE * (tolerance - float(np.max(limits.amax[list(limits.cols)])) * limits.period**2 / 8.0)
+    found = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
+    if not found:
+        return sm
+    law = law_of(sm.curve)
+    before = _clock(law, [sm.curve.length])[0]
+    for _ in range(3):  # all found, then those that gained (a stretch's neighbours change speed too), then again
+        curve = _splice(sm.curve, found)
+        new = law_of(curve)
+        faster = [f for f in found if np.diff(_clock(new, f[3]))[0] < np.diff(_clock(law, f[3]))[0]]
+        if len(faster) == len(found):
+            if _clock(new, [curve.length])[0] < before:
+                return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found)))
+            break
+        if not faster:
+            break
+        found = faster
+    return sm
+
+
+def _clock(law: TimeLaw, u) -> np.ndarray:
+    """The time law's time (waits left out) at curve parameters u."""
+    v = np.sqrt(np.maximum(law.y, 0.0))
+    t = np.r_[0.0, np.cumsum(2.0 * np.diff(law.s) / np.maximum(v[1:] + v[:-1], 1e-300))]
+    return np.interp(np.asarray(u, dtype=float), law.u, t)
+
+
+def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, seg_feed: np.ndarray,
+                   limits: PathLimits, tol: float) -> list:
+    """Curvature-bound stretches of ``curve`` reshaped within ``tol`` of the programmed path ``raw``
+    (parameterised by programmed arc length); ``seg_feed``: each programmed segment's path-speed cap.
+    Returns (ka, kb, spline, (ua, ub), deviation) per stretch reshaped: the spline, on the curve's own
+    parameter from ua, replaces intervals ka .. kb."""
+    cols = list(limits.cols)
+    inv_a = np.zeros(3)
+    inv_a[cols] = 1.0 / limits.amax[cols]
+    n_scan = max(2, int(math.ceil(curve.length / _SCAN)) + 1)
+    u = np.linspace(0.0, curve.length, n_scan)
+    kappa, normal = _curvature(curve, u)
+    load = kappa * np.max(np.abs(normal) * inv_a, axis=1)
+    tangent = curve.evaluate(u, 1)[1]
+    cap = np.minimum(seg_feed[curve.segment_at(u)], limits.along(tangent)[0])
+    bound = (np.sqrt(1.0 / np.maximum(load, 1e-300)) < _BOUND * cap) & (curve.kind[curve.interval_at(u)] == ARC)
+    # stretches: runs of bound samples on arcs, cut at stops, snapped to the curve's interval boundaries
+    edges = np.flatnonzero(np.diff(np.r_[0, bound.astype(int), 0]))
+    stops = np.unique(np.asarray(stop_u, dtype=float))
+    pieces = []
+    for a, b in zip(edges[::2], edges[1::2]):
+        ua, ub = u[a], u[b - 1]
+        cuts = stops[(stops > ua) & (stops < ub)]
+        for lo, hi in zip(np.r_[ua, cuts], np.r_[cuts, ub]):
+            ka, kb = (int(k) for k in curve.interval_at(np.array([lo, hi])))
+            ka += int(curve.u0[ka] < lo - _SCAN)  # intervals that reach well past the bound samples stay
+            kb -= int(curve.u1[kb] > hi + _SCAN)
+            turned = float(np.sum(np.abs(curve.dphi[ka:kb + 1]) * (curve.u1[ka:kb + 1] - curve.u0[ka:kb + 1])))
+            if kb < ka or curve.u1[kb] - curve.u0[ka] < _MIN_LEN or turned < _MIN_TURN:
+                continue
+            # long stretches in parts of about _PART mm (each kept or not on its own), cut between intervals
+            parts = max(1, int(round((curve.u1[kb] - curve.u0[ka]) / _PART)))
+            cut = np.searchsorted(curve.u0[ka:kb + 1], np.linspace(curve.u0[ka], curve.u1[kb], parts + 1)[1:-1]) + ka
+            bounds = np.unique(np.r_[ka, cut, kb + 1])
+            pieces += [(int(x), int(y) - 1) for x, y in zip(bounds[:-1], bounds[1:])]
+    found = []
+    for ka, kb in pieces:
+        got = _reshape_stretch(curve, raw, ka, kb, inv_a, tol)
+        if got is not None:
+            found.append((ka, kb, got[0], (float(curve.u0[ka]), float(curve.u1[kb])), got[1]))
+    return found
+
+
+def _curvature(curve: PlannedCurve, u: np.ndarray, within=None) -> tuple[np.ndarray, np.ndarray]:
+    """Curvature and unit principal normal at curve parameters u (normal 0 where the curve is straight);
+    ``within``: (ka, kb), the intervals u lies in (so a stretch's last point is evaluated on its last interval)."""
+    _, d1, d2 = _evaluate(curve, u, 2, within)
+    speed = np.linalg.norm(d1, axis=1)
+    t = d1 / speed[:, None]
+    kvec = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / speed[:, None] ** 2
+    kappa = np.linalg.norm(kvec, axis=1)
+    return kappa, kvec / np.maximum(kappa, 1e-300)[:, None]
+
+
+def _evaluate(curve: PlannedCurve, u: np.ndarray, order: int, within=None) -> list[np.ndarray]:
+    index = None if within is None else np.clip(curve.interval_at(u), *within)
+    return curve.evaluate(u, order, index=index)
+
+
+def _grid(curve: PlannedCurve, ka: int, kb: int) -> np.ndarray:
+    """Parameters over [ua, ub] at most _TURN_STEP of turning and _STEP_MAX mm apart."""
+    ua, ub = curve.u0[ka], curve.u1[kb]
+    fine = np.linspace(ua, ub, max(3, int(math.ceil((ub - ua) / _STEP_MIN)) + 1))
+    kappa, _ = _curvature(curve, fine, (ka, kb))
+    density = np.maximum(kappa / _TURN_STEP, 1.0 / _STEP_MAX)
+    count = np.r_[0.0, np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(fine))]
+    n = max(8, int(math.ceil(count[-1])))
+    return np.interp(np.linspace(0.0, count[-1], n + 1), count, fine)
+
+
+def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, inv_a: np.ndarray,
+                     tol: float):
+    """(spline, deviation) of the stretch over intervals ka .. kb reshaped, or None where nothing is gained or the
+    check fails."""
+    ua, ub = float(curve.u0[ka]), float(curve.u1[kb])
+    u = _grid(curve, ka, kb)
+    p, d1 = _evaluate(curve, u, 1, (ka, kb))
+    kappa, normal = _curvature(curve, u, (ka, kb))
+    speed = np.linalg.norm(d1, axis=1)
+    s = np.r_[0.0, np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(u))]
+    n = len(u)
+    m = np.max(np.abs(normal) * inv_a, axis=1)
+    load = kappa * m
+    # the band: where along N the programmed path lies from each point, and how far either way d may go
+    pu = curve.programmed_u(np.array([ua, ub]))
+    programmed = _dense(raw.points, pu[0], pu[1])  # the path the stretch stands for
+    around = _dense(raw.points, max(0.0, pu[0] - _MARGIN), min(raw.length, pu[1] + _MARGIN))
+    near = cKDTree(around)
+    lo, hi = _band(p, normal, d1 / speed[:, None], around, near, programmed, _BAND_SHARE * tol)
+    lo[:2] = hi[:2] = lo[-2:] = hi[-2:] = 0.0
+    turn = np.r_[0.0, np.cumsum(0.5 * (kappa[1:] + kappa[:-1]) * np.diff(s))]
+    lo_w = np.maximum(np.searchsorted(turn, turn - _REACH_TURN), np.searchsorted(s, s - _WINDOW_MAX))
+    hi_w = np.minimum(np.searchsorted(turn, turn + _REACH_TURN, side="right"),
+                      np.searchsorted(s, s + _WINDOW_MAX, side="right")) - 1
+    ref = window_max(load, lo_w, np.maximum(hi_w, lo_w))
+    # variables: d_0 .. d_n-1, g_0 .. g_n-1, e_0 .. e_n-1; rows: load_k + m_k (kappa_k^2 d_k + (D2 d)_k) <= (1 - g_k) ref_k
+    hm, hp = np.diff(s)[:-1], np.diff(s)[1:]
+    k = np.arange(1, n - 1)
+    c_lo, c_hi = 2.0 / (hm * (hm + hp)), 2.0 / (hp * (hm + hp))
+    rows = np.concatenate([k - 1, k - 1, k - 1, k - 1, k - 1])
+    cols = np.concatenate([k - 1, k, k + 1, k, n + k])
+    vals = np.concatenate([m[k] * c_lo, -m[k] * (c_lo + c_hi), m[k] * c_hi, m[k] * kappa[k] ** 2, ref[k]])
+    rhs = ref[k] - load[k]
+    # the share changes slowly: |g_k+1 - g_k| <= slope * turning between them (and a little per mm)
+    step = _GAIN_SLOPE * (np.diff(turn) / (2 * _REACH_TURN) + np.diff(s) / (4 * _WINDOW_MAX))
+    j = np.arange(n - 1)
+    r0 = n - 2
+    rows = np.concatenate([rows, r0 + j, r0 + j, r0 + n - 1 + j, r0 + n - 1 + j])
+    cols = np.concatenate([cols, n + j + 1, n + j, n + j, n + j + 1])
+    vals = np.concatenate([vals, np.ones(n - 1), -np.ones(n - 1), np.ones(n - 1), -np.ones(n - 1)])
+    rhs = np.concatenate([rhs, step, step])
+    # e_k >= |(D2 d)_k|, priced at _BENDING of what lowering the load by that much would gain: d bends only
+    # where that pays (a linear program would otherwise pick any d, rippling between its points)
+    r1 = r0 + 2 * (n - 1)
+    e_at = 2 * n + k
+    for sign, r in ((1.0, r1), (-1.0, r1 + n - 2)):
+        rows = np.concatenate([rows, *[r + k - 1] * 4])
+        cols = np.concatenate([cols, k - 1, k, k + 1, e_at])
+        vals = np.concatenate([vals, sign * c_lo, -sign * (c_lo + c_hi), sign * c_hi, -np.ones(n - 2)])
+    rhs = np.concatenate([rhs, np.zeros(2 * (n - 2))])
+    a_ub = coo_matrix((vals, (rows, cols)), shape=(len(rhs), 3 * n)).tocsr()
+    weight = np.gradient(s) * np.sqrt(np.maximum(ref, 1e-300))  # time ~ ds sqrt(load)
+    cost = np.r_[np.zeros(n), -weight, _BENDING * weight * m / np.maximum(ref, 1e-300)]
+    bounds = np.c_[np.r_[lo, np.zeros(2 * n)], np.r_[hi, np.full(n, _GAIN_MAX), np.full(n, np.inf)]]
+    bounds[n:n + 2, 1] = bounds[2 * n - 2:2 * n, 1] = 0.0
+    res = linprog(cost, A_ub=a_ub, b_ub=rhs, bounds=bounds, method="highs")
+    if res.status != 0 or float(weight @ res.x[n:2 * n]) < 1e-3 * float(weight.sum()) * _GAIN_SLOPE:
+        return None
+    d = res.x[:n]
+    for share in (1.0, 0.5):
+        spline = CubicSpline(u - ua, p + (share * d)[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
+        dev = _deviation(spline, ua, ub, curve, near, programmed)
+        if dev <= tol:
+            return spline, dev
+    return None
+
+
+def _band(p: np.ndarray, normal: np.ndarray, tangent: np.ndarray, around: np.ndarray, near: cKDTree,
+          programmed: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi): how far along the normal each point may move. Both ways: the point stays within ``tol`` of the
+    programmed point nearest it (of ``around``, the path near the stretch), and every programmed point stays
+    within ``tol`` of the curve point nearest it (each taken as lying on a line along the curve's tangent)."""
+    _, j = near.query(p)
+    lo, hi = _room(around[j] - p, normal, tangent, tol)
+    _, k = cKDTree(p).query(programmed)
+    lo_r, hi_r = _room(programmed - p[k], normal[k], tangent[k], tol)
+    np.maximum.at(lo, k, lo_r)
+    np.minimum.at(hi, k, hi_r)
+    return np.minimum(lo, 0.0), np.maximum(hi, 0.0)
+
+
+def _room(r: np.ndarray, normal: np.ndarray, tangent: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Interval of d for which |p + d N - q| <= tol, r = q - p, q's line taken along the tangent."""
+    along = np.einsum("ij,ij->i", r, normal)
+    side = r - along[:, None] * normal
+    side -= np.einsum("ij,ij->i", side, tangent)[:, None] * tangent
+    room = np.sqrt(np.maximum(tol * tol - np.einsum("ij,ij->i", side, side), 0.0))
+    return along - room, along + room
+
+
+def _dense(points_of, a: float, b: float) -> np.ndarray:
+    return points_of(np.linspace(a, b, max(3, int(math.ceil((b - a) / _CHECK_STEP)) + 1)))
+
+
+def _deviation(spline: CubicSpline, ua: float, ub: float, curve: PlannedCurve, near: cKDTree,
+               programmed: np.ndarray) -> float:
+    """Largest distance, both ways, between the reshaped stretch (with a little of the curve either side) and
+    the programmed path it stands for, both as points _CHECK_STEP apart: distances to the nearest point, each
+    at most sqrt(d^2 + (step/2)^2) over the distance to the polyline through them (3e-4 mm at 0.05 mm)."""
+    pts = np.vstack([_dense(curve.points, max(0.0, ua - _MARGIN), ua), _dense(spline, 0.0, ub - ua),
+                     _dense(curve.points, ub, min(curve.length, ub + _MARGIN))])
+    return max(float(near.query(pts)[0].max()), float(cKDTree(pts).query(programmed)[0].max()))
+
+
+_FIELDS = ("kind", "coef", "centre", "e1", "e2", "w", "radius", "phi0", "dphi", "rise")
+
+
+def _splice(curve: PlannedCurve, replaced) -> PlannedCurve:
+    """The curve with intervals ka .. kb of each (ka, kb, spline) replaced by the spline's cubics (on the same
+    parameter, so nothing else moves)."""
+    parts: dict[str, list] = {name: [] for name in (*_FIELDS, "u0", "u1", "pu0", "prate")}
+    prev = 0
+    for ka, kb, spline, *_ in replaced:
+        for name in parts:
+            parts[name].append(getattr(curve, name)[prev:ka])
+        ua = float(curve.u0[ka])
+        u0, u1 = ua + spline.x[:-1], ua + spline.x[1:]
+        u1[-1] = curve.u1[kb]
+        n = len(u0)
+        pu0, pu1 = curve.programmed_u(u0), curve.programmed_u(u1)
+        pu1[-1] = curve.pu0[kb] + curve.prate[kb] * (curve.u1[kb] - curve.u0[kb])
+        new = {"u0": u0, "u1": u1, "pu0": pu0, "prate": (pu1 - pu0) / (u1 - u0), "kind": np.zeros(n, dtype=np.int8),
+               "coef": np.transpose(spline.c[::-1], (1, 0, 2)), "radius": np.zeros(n), "phi0": np.zeros(n),
+               "dphi": np.zeros(n), "rise": np.zeros(n)}
+        new |= {name: np.zeros((n, 3)) for name in ("centre", "e1", "e2", "w")}
+        for name in parts:
+            parts[name].append(new[name].astype(getattr(curve, name).dtype))
+        prev = kb + 1
+    for name in parts:
+        parts[name].append(getattr(curve, name)[prev:])
+    return PlannedCurve(seg_u0=curve.seg_u0, **{name: np.concatenate(v) for name, v in parts.items()})
