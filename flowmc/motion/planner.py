@@ -34,6 +34,8 @@ from flowmc.motion.trajectory import Trajectory
 __all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
 
 PROFILES = ("trapezoid", "scurve")
+_BLEND_SHARE = 0.015  # lone corners are weighed for blends where stops at them make up this share of the plan
+_BLEND_SLACK = 0.02  # a blended jerk-limited plan is retimed when its time law takes at most this much longer
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,18 +74,48 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     jerk = profile == "scurve"
     _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
     sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
-
     if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
         sm = faster_reshaped(sm, path, lim, tolerance, lambda curve: plan_time_law(
-            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, lambda u: sm.seg_feed[curve.segment_at(u)], lim,
-            jerk=False, mend_swings=True))
+            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, lambda u: sm.seg_feed[curve.segment_at(u)], lim, jerk=False,
+            mend_swings=True))
+    if sm.stopped is None:
+        law, u, dwell_seg, pos = _timed(path, machine, lim, sm, jerk)
+        if jerk:
+            law, u, dwell_seg, pos = _retimed(path, machine, lim, sm, law, u, dwell_seg, pos)
+    else:
+        # lone corners passed on jerk-limited blends, or stopped at. The time law alone passes a blend at its
+        # slowest all through it; the retiming (linear programs, costly) lets the speed dip at its middle only;
+        # stopping wins at sharp turns (star10's 144 degrees). Blends are weighed only where the stops at them
+        # (a rest of Tj each, and more) are _BLEND_SHARE of the stopped plan or more; the blended plan is
+        # retimed where its time law takes at most _BLEND_SLACK longer than the stopped one's, and kept if it
+        # then beats that law; else the stopped plan is retimed too and the faster kept
+        stopped = sm.stopped
+        law, u, dwell_seg, pos = _timed(path, machine, lim, stopped, jerk)
+        fast = None
+        if sm.blends * law.window >= _BLEND_SHARE * len(u) * machine.period:
+            blended = _timed(path, machine, lim, sm, jerk)
+            if len(blended[1]) <= (1.0 + _BLEND_SLACK) * len(u):
+                fast = _retimed(path, machine, lim, sm, *blended)
+        if fast is None or len(fast[1]) >= len(u):
+            slow = _retimed(path, machine, lim, stopped, law, u, dwell_seg, pos)
+            if fast is None or len(slow[1]) < len(fast[1]):
+                sm, fast = stopped, slow
+        law, u, dwell_seg, pos = fast
+    tags = np.where(dwell_seg >= 0, dwell_seg, sm.curve.segment_at(u))
+    tags = np.maximum.accumulate(tags)
+    cols = list(lim.cols)
+    traj = Trajectory(pos[:, cols], machine.period, tags, axes=lim.axes,
+                      signals=path_signals(path, segment_start_times(tags, machine.period, len(path))),
+                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid(), events=program_events(path))
+    return SmoothPlan(traj, u, sm, law)
+
+
+def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bool):
+    """The time law on a smoothed curve and its samples."""
     curve = sm.curve
 
-    def feed_of_u(u):
-        return sm.seg_feed[curve.segment_at(u)]
-
     def planned(mend_swings: bool):
-        law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, feed_of_u, lim, jerk=jerk,
+        law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm), lim, jerk=jerk,
                             mend_swings=mend_swings)
         u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
         pos = curve.points(u)
@@ -93,15 +125,19 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     law, u, dwell_seg, pos = planned(not jerk)
     if jerk and sampled_jerk(pos[:, list(lim.cols)], lim) > 1.0:
         law, u, dwell_seg, pos = planned(True)  # a swing of the acceleration broke the jerk limit: mend them all
-    if jerk:
-        retimed = retime_curvature_bound(law, curve, lim, feed_of_u, machine.period)
-        if retimed is not None and len(retimed[0]) < len(u):
-            u, dwell_seg, pos = retimed
-            pos[0], pos[-1] = path.start, path.end
-    tags = np.where(dwell_seg >= 0, dwell_seg, curve.segment_at(u))
-    tags = np.maximum.accumulate(tags)
-    cols = list(lim.cols)
-    traj = Trajectory(pos[:, cols], machine.period, tags, axes=lim.axes,
-                      signals=path_signals(path, segment_start_times(tags, machine.period, len(path))),
-                      segment_names=path.segment_names(), segment_rapid=path.segment_rapid(), events=program_events(path))
-    return SmoothPlan(traj, u, sm, law)
+    return law, u, dwell_seg, pos
+
+
+def _feed(sm: Smoothed):
+    def feed_of_u(u):
+        return sm.seg_feed[sm.curve.segment_at(u)]
+    return feed_of_u
+
+
+def _retimed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, law, u, dwell_seg, pos):
+    """A jerk-limited plan's samples, retimed by flowmc.motion.jerk_retime where that gains."""
+    retimed = retime_curvature_bound(law, sm.curve, lim, _feed(sm), machine.period, sm.blend_u)
+    if retimed is not None and len(retimed[0]) < len(u):
+        u, dwell_seg, pos = retimed
+        pos[0], pos[-1] = path.start, path.end
+    return law, u, dwell_seg, pos

@@ -19,7 +19,9 @@ across many segments. Here the smoothing works on *runs*, not corners:
    and it is quicker, two parabolas, slowing along that axis into the corner. Every other run is replaced
    by a cubic B-spline fitted to the programmed path over the run, with the position, tangent and
    curvature of the path at both ends of the run fixed, so the result is curvature-continuous (G2)
-   where it joins the rest of the path and inside.
+   where it joins the rest of the path and inside. For jerk-limited profiles a lone corner between two
+   lines gets the jerk-limited analogue of the parabola instead (``_corner_jerk_blends``: two cubics,
+   curvature-continuous), and ``Smoothed.stopped`` carries the same smoothing with those corners stopped at.
 
 The fit is a penalised least-squares B-spline (a P-spline: Eilers and Marx, "Flexible smoothing with
 B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of
@@ -101,9 +103,11 @@ class Smoothed:
     ``stop_u``: where the tool must be at rest (program start and end, tool or spindle changes,
     dwells, reversals, corners of runs that could not be fitted), with ``stop_dwell`` seconds to wait
     and ``stop_segment`` the dwell segment that owns the wait (-1 for none). ``seg_feed``: each
-    programmed segment's path-speed cap. Counts: ``blends`` tangent-arc corners, ``fitted`` spline
+    programmed segment's path-speed cap. Counts: ``blends`` corner blends, ``fitted`` spline
     runs, ``failed`` runs left unsmoothed; ``deviation`` the largest distance between a fitted curve
-    and the programmed path (both ways, see the module docstring).
+    and the programmed path (both ways, see the module docstring); ``blend_u`` the curve parameter
+    range (n, 2) of every lone corner's blend; ``stopped`` (jerk-limited smoothing with blends only) the same
+    smoothing with those corners stopped at instead.
     """
 
     curve: PlannedCurve
@@ -115,6 +119,8 @@ class Smoothed:
     fitted: int
     failed: int
     deviation: float
+    blend_u: np.ndarray
+    stopped: Smoothed | None = None
 
 
 # ---------------------------------------------------------------- the programmed path as a curve
@@ -689,6 +695,42 @@ def _corner_time(width, f, m, room, v_full, a_line):
     return v * m + 2.0 * line
 
 
+def _corner_jerk_blends(corner, u_in, u_out, room, v_full, apex, limits: PathLimits):
+    """Round lone line-line corners for jerk-limited profiles by the per-axis jerk-limited blend: two cubics.
+
+    The jerk-limited analogue of ``_corner_parabolas``: through a corner the velocity changes direction
+    by (u_out - u_in) per unit of path parameter rate w, here with one constant jerk vector over the first
+    half of the blend and the opposite one over the second (the bang-bang jerk of an S-curve, applied to the
+    velocity's change of direction; with an axis the turn leaves alone, as X on a zigzag, that axis moves at
+    constant speed through it). With x in [0, 2d], p = start + u_in x + (u_out - u_in) 2d G(x / 2d), g = G'
+    rising as 2 z^2 to 1/2 at z = 1/2 and as 1 - 2 (1 - z)^2 after: two cubics, whose curvature is zero at
+    both ends, so the blend joins its lines curvature-continuously (G2) and its curvature rises and falls
+    linearly in x, as the clothoid pairs and curvature-optimal corner blends of CNC corner smoothing do
+    (Sencer, Ishizaki and Shamoto, "A curvature optimal sharp corner smoothing algorithm for high-speed
+    feed motion generation of NC systems along linear tool paths", Int. J. Adv. Manuf. Technol. 76, 2015),
+    here sized per axis. Passed at rate w it takes w^2 |du_i| / d <= amax_i and w^3 |du_i| / d^2 <= jmax_i;
+    its middle passes d |du| / 6 = d sin(alpha/2) / 3 from the corner (the parabola's: d sin(alpha/2) / 2),
+    which ``apex`` bounds, so d may grow to 3 apex / sin(alpha/2), no more than ``room`` nor than passing
+    at ``v_full`` needs. Returns d, the pieces' breaks (n, 3) in shares of 2d, and their coefficients
+    (n, 2, 4, 3) in each piece's own parameter.
+    """
+    du = u_out - u_in
+    half_sin = 0.5 * np.linalg.norm(du, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m_a = np.max(np.where(np.abs(du) > 0, np.abs(du) / limits.amax, 0.0), axis=1)
+        m_j = np.max(np.where(np.abs(du) > 0, np.abs(du) / limits.jmax, 0.0), axis=1)
+        need = np.maximum(v_full**2 * m_a, np.sqrt(v_full**3 * m_j))
+        d = np.minimum(np.minimum(3.0 * apex / np.maximum(half_sin, 1e-300), need), room)
+    start = (corner - u_in * d[:, None])[:, None]
+    coef = np.zeros((len(d), 2, 4, 3))
+    # per half: its start at x = 0 and x = d; G, g and g' there (g' = 2 at the middle), g'' = +-4 on it
+    coef[:, :, 0] = start + np.stack([np.zeros_like(u_in), u_in + du / 6.0], axis=1) * d[:, None, None]
+    coef[:, :, 1] = u_in[:, None] + du[:, None] * np.array([0.0, 0.5])[None, :, None]
+    coef[:, :, 2] = du[:, None] * np.array([0.0, 0.5])[None, :, None] / d[:, None, None]
+    coef[:, :, 3] = du[:, None] * np.array([1.0, -1.0])[None, :, None] / (6.0 * d[:, None, None] ** 2)
+    return d, np.tile([0.0, 0.5, 1.0], (len(d), 1)), coef
+
+
 @dataclass
 class _Outside:
     """Lone corners moved out (``_outside_corners``): per blend the (moved) corner, the lines' directions into
@@ -816,7 +858,8 @@ def _copy_outside(raw: PlannedCurve, b: CurveBuilder, cut_a: np.ndarray, cut_b: 
 
 def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity: int = 1) -> Smoothed:
     """Smooth ``path`` within ``tolerance`` (mm): tangent-continuous joins (``continuity=1``, enough for
-    acceleration-limited profiles) or curvature-continuous ones (``continuity=2``, for jerk limits).
+    acceleration-limited profiles) or curvature-continuous ones (``continuity=2``, for jerk limits; lone
+    sharp line-line corners then get ``_corner_jerk_blends``, and ``Smoothed.stopped`` stops at them).
 
     Raises PlanningError naming the segment for gaps, bad feeds, or motion on axes the machine lacks.
     """
@@ -857,10 +900,13 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         # holds the speed there near zero anyway), so the jerk-limited profile stops there
         lone = ((runs.first == runs.last) & (alpha[runs.first] >= _SHARP) & (runs.ua >= el.u0[runs.first])
                 & (runs.ub <= el.u1[runs.first + 1]))
+        runs.arc = (lone & el.is_line[runs.first] & el.is_line[runs.first + 1] & ~runs.free_a & ~runs.free_b)
+        lone &= ~runs.arc
         stop_extra.append(el.u1[runs.first[lone]])
         runs = _Runs(*(getattr(runs, f.name)[~lone] for f in fields(_Runs)))
 
-    b = CurveBuilder()
+    blend_parts: list[tuple] = []  # (programmed stretches, coefficients, widths) of blends and their redrawn lines
+    fit_parts: list[tuple] = []
     line_a = line_b = np.zeros(0)
     blends = np.flatnonzero(runs.arc)
     if len(blends):
@@ -871,19 +917,24 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         still = np.zeros(len(j), dtype=bool)
         while True:  # a blend too short to reach back past a slid corner (no room) keeps its corner where it is
             out = _outside_corners(el, raw, j, stop, room_in, room_out, tol_fit, still)
-            d, coef, split, width = _corner_parabolas(out.corner, out.u_in, out.u_out, out.room, v_full, out.apex,
+            if g2:
+                d, breaks, coef = _corner_jerk_blends(out.corner, out.u_in, out.u_out, out.room, v_full, out.apex,
                                                       limits)
+                widths = 2.0 * d[:, None] * np.diff(breaks, axis=1)
+            else:  # one parabola, or two (split at the middle) where the turn leaves an axis spare
+                d, coef, split, width = _corner_parabolas(out.corner, out.u_in, out.u_out, out.room, v_full, out.apex,
+                                                          limits)
+                breaks = np.where(split[:, None], [0.0, 0.5, 1.0], [0.0, 1.0, 1.0])
+                widths = np.where(split[:, None], 0.5 * width[:, None], [[1.0, 0.0]] * width[:, None])
             short = ~still & (d <= np.maximum(out.past_in, out.past_out))
             if not short.any():
                 break
             still |= short
         # a blend ends on a programmed line past its corner's slide, or on a redrawn line d from its moved end
         runs.ua[blends], runs.ub[blends] = el.u1[j] - d + out.past_in, el.u0[j + 1] + d - out.past_out
-        for ua, ub, c, w, two in zip(runs.ua[blends], runs.ub[blends], coef, width, split):
-            if two:
-                b.polys([ua, 0.5 * (ua + ub), ub], c, widths=[0.5 * w, 0.5 * w])
-            else:
-                b.polys([ua, ub], c[:1], widths=[w])
+        for ua, ub, c, w, x in zip(runs.ua[blends], runs.ub[blends], coef, widths, breaks):
+            pieces = 2 if x[1] < 1.0 else 1
+            blend_parts.append((ua + (ub - ua) * x[:pieces + 1], c[:pieces], w[:pieces]))
         if len(out.line):  # the redrawn lines, between the blends' ends
             redrawn = out.line
             trim = np.zeros(len(el.seg) + 1)
@@ -895,7 +946,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
             coef[:, 0] = out.start + (lead / full)[:, None] * span
             coef[:, 1] = span / full[:, None]
             line_a, line_b = el.u0[redrawn] + lead, el.u1[redrawn] - tail
-            b.polys(np.c_[line_a, line_b], coef, widths=full - lead - tail)
+            blend_parts.append((np.c_[line_a, line_b], coef, full - lead - tail))
     fits = np.flatnonzero(~runs.arc)
     failed = 0
     deviation = 0.0
@@ -915,7 +966,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
             for i in range(len(pending)):
                 if fit.ok[i]:
                     x, pu, coef = _run_polys(fit, i, ncp[i])
-                    b.polys(pu, coef, widths=np.diff(x))
+                    fit_parts.append((pu, coef, np.diff(x)))
                     devs.append(fit.deviation[i])
             pending = pending[~fit.ok]
             h *= 0.5
@@ -927,24 +978,35 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
             stop_extra.append(el.u1[:-1][inside])
             runs.ua[r] = runs.ub[r] = np.nan
         deviation = float(max(devs)) if devs else 0.0
-    keep = np.isfinite(runs.ua)
-    cut_a, cut_b = np.r_[runs.ua[keep], line_a], np.r_[runs.ub[keep], line_b]
-    order = np.argsort(cut_a, kind="stable")
-    _copy_outside(raw, b, cut_a[order], cut_b[order])
-    curve = b.build(raw.seg_u0)
+    stops = [np.array([0.0, raw.length]), el.u1[:-1][stop],
+             el.u1[:-1][~need & ~stop & (alpha > 0) & _unsmoothable(alpha, period, a_min, v_big)], *stop_extra]
 
-    # stops: start, end, stop junctions, unsmoothed corners; dwells wait where they are
-    stop_u = [np.array([0.0, raw.length]), el.u1[:-1][stop], el.u1[:-1][~need & ~stop & (alpha > 0)
-                                                                           & _unsmoothable(alpha, period, a_min, v_big)]]
-    stop_u += stop_extra
-    cols = path.columns
-    dwell_idx = np.flatnonzero(cols.kind == DWELL)
-    su = curve.curve_u(np.concatenate(stop_u + [raw.seg_u0[dwell_idx]]))
-    sd = np.concatenate([np.zeros(len(su) - len(dwell_idx)), cols.seconds[dwell_idx]])
-    ss = np.concatenate([np.full(len(su) - len(dwell_idx), -1), dwell_idx])
-    order = np.lexsort((ss, su))
-    return Smoothed(curve, su[order], sd[order], ss[order], seg_feed, len(blends), len(fits) - failed, failed,
-                    deviation)
+    def assemble(with_blends: bool, stopped: Smoothed | None = None) -> Smoothed:
+        b = CurveBuilder()
+        for pu, coef, widths in (blend_parts if with_blends else []) + fit_parts:
+            b.polys(pu, coef, widths=widths)
+        keep = np.isfinite(runs.ua) & (with_blends | ~runs.arc)
+        cut_a = np.r_[runs.ua[keep], line_a if with_blends else []]
+        cut_b = np.r_[runs.ub[keep], line_b if with_blends else []]
+        order = np.argsort(cut_a, kind="stable")
+        _copy_outside(raw, b, cut_a[order], cut_b[order])
+        curve = b.build(raw.seg_u0)
+        # stops: start, end, stop junctions, unsmoothed corners (and lone corners not blended); dwells wait
+        # where they are
+        stop_u = stops if with_blends else stops + [el.u1[runs.first[blends]]]
+        cols = path.columns
+        dwell_idx = np.flatnonzero(cols.kind == DWELL)
+        su = curve.curve_u(np.concatenate(stop_u + [raw.seg_u0[dwell_idx]]))
+        sd = np.concatenate([np.zeros(len(su) - len(dwell_idx)), cols.seconds[dwell_idx]])
+        ss = np.concatenate([np.full(len(su) - len(dwell_idx), -1), dwell_idx])
+        order = np.lexsort((ss, su))
+        n = len(blends) if with_blends else 0
+        blend_u = curve.curve_u(np.c_[runs.ua[blends], runs.ub[blends]]) if n else np.zeros((0, 2))
+        return Smoothed(curve, su[order], sd[order], ss[order], seg_feed, n, len(fits) - failed, failed,
+                        deviation, blend_u, stopped)
+
+    # jerk-limited: the same smoothing with the lone corners stopped at, for the planner to weigh
+    return assemble(True, assemble(False) if g2 and len(blends) else None)
 
 
 def _unsmoothable(alpha, period, a_min, v_big) -> np.ndarray:

@@ -252,6 +252,49 @@ def test_corners_with_a_spare_axis_take_two_parabolas_and_the_time_law_counts_th
     assert both.cycle_time < 0.98 * one.cycle_time  # 1.980 s, 2.019 s with the plain law, 2.030 s with one parabola
 
 
+def test_zigzag40_s_curve_passes_its_corners_on_jerk_limited_blends_within_1_3_times_the_trapezoid():
+    # 39 lone 60-degree corners: each gets two cubics with zero curvature at both ends (curvature-continuous
+    # with its lines) laid in the moved-out corner, and the speed dips at the blend's middle instead of
+    # stopping there (13.62 s with a stop at every corner, 1.37 x the trapezoid plan)
+    path = ref_path("zigzag40")
+    p = plan_smooth(path, machine(period=0.001), tolerance=TOL, profile="scurve")
+    assert p.smoothed.blends == 39 and len(p.smoothed.stop_u) == 2
+    within_limits(p.trajectory, 5000.0)
+    to_path, from_path = deviation_both_ways(p.trajectory, path)
+    assert to_path <= TOL and from_path <= TOL
+    speed = p.trajectory.speed()
+    xy = p.trajectory.positions[:, :2]
+    for corner in [seg.end[:2] for seg in path.segments[:-1]]:
+        near = np.linalg.norm(xy - corner, axis=1) < 0.5
+        assert speed[near[1:] | near[:-1]].min() > 5.0  # mm/s: passed, not stopped at
+    assert p.cycle_time <= 1.3 * plan_smooth(path, machine(period=0.001), tolerance=TOL).cycle_time
+
+
+@pytest.mark.parametrize("turn", [30.0, 60.0, 90.0, 150.0])
+def test_jerk_limited_corner_blends_are_curvature_continuous_within_the_tolerance_both_ways(turn):
+    # a zigzag of lone corners: the jerk-limited smoothing blends each (two cubics in the moved-out corner),
+    # with zero curvature where a blend meets its lines, and the curve stays within the tolerance both ways
+    from flowmc.motion.limits import PathLimits
+    from flowmc.motion.smoothing import smooth_path
+
+    a = math.radians(turn)
+    h = [_rot([1.0, 0.0], 0.3 + a / 2), _rot([1.0, 0.0], 0.3 - a / 2)]
+    pts = np.cumsum(np.r_[[[0.0, 0.0]], [h[k % 2] * 4.0 for k in range(6)]], axis=0)
+    path = Path([Line((*p0, 0.0), (*p1, 0.0)) for p0, p1 in zip(pts[:-1], pts[1:])]).with_feed(200.0)
+    sm = smooth_path(path, PathLimits.of(machine(period=0.001)), TOL, continuity=2)
+    assert sm.blends == 5 and len(sm.stop_u) == 2 and len(sm.stopped.stop_u) == 7
+    curve = sm.curve
+    u = np.linspace(0.0, curve.length, 200001)
+    p, d1, d2 = curve.evaluate(u, 2)
+    to_path, from_path = contour_error(p, np.c_[pts, np.zeros(len(pts))]), coverage_error(p, np.c_[pts, np.zeros(len(pts))])
+    assert to_path <= TOL and from_path <= TOL
+    kappa = np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+    _, e1, e2 = curve.evaluate(np.r_[sm.blend_u[:, 0], sm.blend_u[:, 1] - 1e-9], 2)  # on the blends, at their ends
+    ends = np.linalg.norm(np.cross(e1, e2), axis=1) / np.linalg.norm(e1, axis=1) ** 3
+    assert ends.max() < 1e-6 * kappa.max()  # zero curvature where each blend meets its lines
+    assert np.abs(np.diff(kappa)).max() < 1e-2 * kappa.max()  # no jump anywhere (a tangent arc would jump by all of it)
+
+
 # ---------------------------------------------------------------- how close to time-optimal
 
 @pytest.mark.parametrize("name", NAMES)
