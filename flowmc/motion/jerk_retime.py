@@ -28,8 +28,6 @@ acceleration and velocity limits (checked here, from the samples) and it is fast
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sparse
-from scipy.optimize import linprog
 
 from flowmc.motion.curve import PlannedCurve
 from flowmc.motion.limits import PathLimits
@@ -145,6 +143,8 @@ def _end_state(s: np.ndarray, v: np.ndarray, k: int) -> np.ndarray:
 def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
     """The fastest u(s) found between samples k0 and k1 (a quadratic B-spline, see the module docstring),
     as constant-acceleration phases from s[k0], and how long it takes; None if a program fails."""
+    import scipy.sparse as sparse  # on first use: scipy.optimize alone costs a fresh process about 0.5 s of CPU
+    from scipy.optimize import linprog
     d0, d1 = float(s[k0]), float(s[k1])
     pieces = max(8, int(round((d1 - d0) / (_STEP_PERIODS * period * float(np.median(v[k0:k1 + 1]))))))
     h = (d1 - d0) / pieces
