@@ -143,8 +143,6 @@ def _end_state(s: np.ndarray, v: np.ndarray, k: int) -> np.ndarray:
 def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
     """The fastest u(s) found between samples k0 and k1 (a quadratic B-spline, see the module docstring),
     as constant-acceleration phases from s[k0], and how long it takes; None if a program fails."""
-    import scipy.sparse as sparse  # on first use: scipy.optimize alone costs a fresh process about 0.5 s of CPU
-    from scipy.optimize import linprog
     d0, d1 = float(s[k0]), float(s[k1])
     pieces = max(8, int(round((d1 - d0) / (_STEP_PERIODS * period * float(np.median(v[k0:k1 + 1]))))))
     h = (d1 - d0) / pieces
@@ -189,6 +187,8 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period):
         vel = np.min([np.where(tan[:, i] != 0, (_ACCEL_SHARE * lim.vmax[i] / np.abs(tan[:, i])) ** 2, np.inf)
                       for i in axes], axis=0)
     vel = np.minimum(vel, feed ** 2)
+    import scipy.sparse as sparse  # on first use: scipy.optimize alone costs a fresh process about 0.5 s of CPU
+    from scipy.optimize import linprog
     best, best_time = c, np.inf
     for rnd in range(_ROUNDS + 1):
         up = (basis * c[cols3]).sum(axis=1)
