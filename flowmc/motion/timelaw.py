@@ -198,7 +198,7 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
 def _turning(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit tangent rows (3, n) and curvature at u on intervals ``index``, worked along the points (sums as
     np.linalg.norm and np.cross take them)."""
-    _, d1, d2 = (d.T for d in curve.evaluate(u, 2, index=index))
+    d1, d2 = (d.T for d in curve.evaluate(u, 2, index=index, lowest=1))
     sp = np.maximum(np.sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]), 1e-300)
     c = (d1[1] * d2[2] - d1[2] * d2[1], d1[2] * d2[0] - d1[0] * d2[2], d1[0] * d2[1] - d1[1] * d2[0])
     return d1 / sp, np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / sp**3
@@ -245,7 +245,7 @@ class _Geometry:
 
 def frame(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, ...]:
     """Tangent T, curvature vector K and P3 = d3p/ds3 by arc length at u (each (n, 3)), and ds/du there."""
-    _, d1, d2, d3 = curve.evaluate(u, 3, index=index)
+    d1, d2, d3 = curve.evaluate(u, 3, index=index, lowest=1)
     sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
     tan = d1 / sp[:, None]
     sp1 = np.einsum("ij,ij->i", d1, d2) / sp  # d|p'|/du
@@ -380,7 +380,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     m = len(du)
     # arc length of every grid interval (Gauss-Legendre), and the geometry at both ends and the middle
     gl_u = 0.5 * (u[:-1] + u[1:])[:, None] + 0.5 * du[:, None] * _GL3_X[None, :]
-    d1 = curve.evaluate(gl_u.ravel(), 1, index=np.repeat(k_iv, len(_GL3_X)))[1]
+    d1 = curve.evaluate(gl_u.ravel(), 1, index=np.repeat(k_iv, len(_GL3_X)), lowest=1)[0]
     ds = 0.5 * du * (np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(m, -1) @ _GL3_W)
     s = np.concatenate([[0.0], np.cumsum(ds)])
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:]])
