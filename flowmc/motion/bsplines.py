@@ -34,6 +34,14 @@ class RunKnots:
         h = width / spans  # per run, what span() needs for its guesses
         self._guess = (self.start + 3, spans - 1, np.where(h > 0, h, 1.0))
 
+    @classmethod
+    def of(cls, knots: list[np.ndarray], offset: np.ndarray) -> RunKnots:
+        """Runs whose clamped knot vectors are given as they are (a fit's, kept run by run)."""
+        a, end = np.array([k[3] for k in knots]), np.array([k[-1] for k in knots])
+        runs = cls(a, end - a, np.array([len(k) - 7 for k in knots]), offset)
+        runs.flat, runs.knots = np.concatenate(knots), list(knots)
+        return runs
+
     def span(self, run: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Index in ``flat`` of the knot t_i <= x < t_{i+1} of each point's run (the run's first or last span
         for x outside it, as scipy's BSpline extrapolates). Runs may overlap: each point searches its own

@@ -84,17 +84,18 @@ class PlannedCurve:
         pu = self.programmed_u(u)
         return np.clip(np.searchsorted(self.seg_u0, pu, side="right") - 1, 0, len(self.seg_u0) - 1)
 
-    def evaluate(self, u, order: int = 0, index: np.ndarray | None = None) -> list[np.ndarray]:
-        """[p, p', ..., p^(order)] at the parameters u, each (len(u), 3); ``index``: their intervals if known."""
+    def evaluate(self, u, order: int = 0, index: np.ndarray | None = None, lowest: int = 0) -> list[np.ndarray]:
+        """[p^(lowest), ..., p^(order)] at the parameters u (by default [p, p', ...]), each (len(u), 3);
+        ``index``: their intervals if known. Derivatives alone skip the positions' arithmetic."""
         u = np.asarray(u, dtype=float).reshape(-1)
         k = self.interval_at(u) if index is None else np.asarray(index)
         is_arc = self.kind[k] == ARC
         if not is_arc.any():
-            return self._poly(u, k, order)
-        out = [np.empty((len(u), 3)) for _ in range(order + 1)]
+            return self._poly(u, k, order, lowest)
+        out = [np.empty((len(u), 3)) for _ in range(lowest, order + 1)]
         poly = np.flatnonzero(~is_arc)
         if len(poly):
-            for o, values in zip(out, self._poly(u[poly], k[poly], order)):
+            for o, values in zip(out, self._poly(u[poly], k[poly], order, lowest)):
                 o[poly] = values
         arc = np.flatnonzero(is_arc)
         kk = k[arc]
@@ -105,24 +106,27 @@ class PlannedCurve:
         cos, sin = np.cos(phi), np.sin(phi)
         e1, e2, w = self.e1[kk].T, self.e2[kk].T, self.w[kk].T
         radial = cos * e1 + sin * e2
-        out[0][arc] = (self.centre[kk].T + r * radial + (rise * x) * w).T
-        if order >= 1:
-            out[1][arc] = ((r * d) * (cos * e2 - sin * e1) + rise * w).T
-        if order >= 2:
-            out[2][arc] = (-(r * d**2) * radial).T
+        if lowest <= 0:
+            out[0 - lowest][arc] = (self.centre[kk].T + r * radial + (rise * x) * w).T
+        if order >= 1 and lowest <= 1:
+            out[1 - lowest][arc] = ((r * d) * (cos * e2 - sin * e1) + rise * w).T
+        if order >= 2 and lowest <= 2:
+            out[2 - lowest][arc] = (-(r * d**2) * radial).T
         if order >= 3:
-            out[3][arc] = ((r * d**3) * (sin * e1 - cos * e2)).T
+            out[3 - lowest][arc] = ((r * d**3) * (sin * e1 - cos * e2)).T
         return out
 
-    def _poly(self, u: np.ndarray, k: np.ndarray, order: int) -> list[np.ndarray]:
+    def _poly(self, u: np.ndarray, k: np.ndarray, order: int, lowest: int = 0) -> list[np.ndarray]:
         # worked as (3, n) rows, so numpy's inner loops run along the points rather than over 3 columns
         by_power = self.coef.transpose(1, 2, 0)
         c0, c1, c2, c3 = (np.take(by_power[m], k, axis=1) for m in range(4))
         x = u - self.u0[k]
-        out = [c0 + x * (c1 + x * (c2 + x * c3))]
-        if order >= 1:
+        out = []
+        if lowest <= 0:
+            out.append(c0 + x * (c1 + x * (c2 + x * c3)))
+        if order >= 1 and lowest <= 1:
             out.append(c1 + x * (2.0 * c2 + x * (3.0 * c3)))
-        if order >= 2:
+        if order >= 2 and lowest <= 2:
             out.append(2.0 * c2 + (6.0 * x) * c3)
         if order >= 3:
             out.append(6.0 * c3)

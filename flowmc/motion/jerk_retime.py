@@ -30,8 +30,6 @@ there the stretches run from the top speed before a blend to the top speed after
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sparse
-from scipy.optimize import linprog
 
 from flowmc.motion.curve import PlannedCurve
 from flowmc.motion.limits import PathLimits
@@ -237,6 +235,8 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict=Fal
         vel = np.min([np.where(tan[:, i] != 0, (_ACCEL_SHARE * lim.vmax[i] / np.abs(tan[:, i])) ** 2, np.inf)
                       for i in axes], axis=0)
     vel = np.minimum(vel, feed ** 2)
+    import scipy.sparse as sparse  # on first use: scipy.optimize alone costs a fresh process about 0.5 s of CPU
+    from scipy.optimize import linprog
     best, best_time = c, np.inf
     for rnd in range(_ROUNDS + 1):
         up = (basis * c[cols3]).sum(axis=1)

@@ -35,13 +35,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.optimize import linprog
-from scipy.sparse import coo_matrix
-from scipy.spatial import cKDTree
 
 from flowmc.motion.curve import ARC, PlannedCurve
 from flowmc.motion.limits import PathLimits
@@ -49,6 +45,10 @@ from flowmc.motion.path import Path
 from flowmc.motion.ranges import window_max
 from flowmc.motion.smoothing import _TOL_SHARE, Smoothed, raw_curve
 from flowmc.motion.timelaw import TimeLaw
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
+    from scipy.spatial import cKDTree
 
 __all__ = ["reshape_curved", "faster_reshaped"]
 
@@ -177,6 +177,11 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
                      tol: float):
     """(spline, deviation) of the stretch over intervals ka .. kb reshaped, or None where nothing is gained or the
     check fails."""
+    from scipy.interpolate import CubicSpline  # on first use, as jerk_retime: a plan without such arcs needs none
+    from scipy.optimize import linprog
+    from scipy.sparse import coo_matrix
+    from scipy.spatial import cKDTree
+
     ua, ub = float(curve.u0[ka]), float(curve.u1[kb])
     u = _grid(curve, ka, kb)
     p, d1 = _evaluate(curve, u, 1, (ka, kb))
@@ -245,6 +250,8 @@ def _band(p: np.ndarray, normal: np.ndarray, tangent: np.ndarray, around: np.nda
     """(lo, hi): how far along the normal each point may move. Both ways: the point stays within ``tol`` of the
     programmed point nearest it (of ``around``, the path near the stretch), and every programmed point stays
     within ``tol`` of the curve point nearest it (each taken as lying on a line along the curve's tangent)."""
+    from scipy.spatial import cKDTree
+
     _, j = near.query(p)
     lo, hi = _room(around[j] - p, normal, tangent, tol)
     _, k = cKDTree(p).query(programmed)
@@ -272,6 +279,8 @@ def _deviation(spline: CubicSpline, ua: float, ub: float, curve: PlannedCurve, n
     """Largest distance, both ways, between the reshaped stretch (with a little of the curve either side) and
     the programmed path it stands for, both as points _CHECK_STEP apart: distances to the nearest point, each
     at most sqrt(d^2 + (step/2)^2) over the distance to the polyline through them (3e-4 mm at 0.05 mm)."""
+    from scipy.spatial import cKDTree
+
     pts = np.vstack([_dense(curve.points, max(0.0, ua - _MARGIN), ua), _dense(spline, 0.0, ub - ua),
                      _dense(curve.points, ub, min(curve.length, ub + _MARGIN))])
     return max(float(near.query(pts)[0].max()), float(cKDTree(pts).query(programmed)[0].max()))

@@ -51,7 +51,6 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy.interpolate import BSpline, CubicSpline
 from scipy.linalg import solveh_banded
 
 from flowmc.errors import PlanningError
@@ -175,6 +174,7 @@ def raw_curve(path: Path) -> tuple[PlannedCurve, _Elements]:
         b.arcs(seg_u0[rows], seg_u0[rows] + length, length, cols.center[rows], eye[geo.iu[arc]], eye[geo.iv[arc]],
                eye[geo.normal[arc]], geo.r0[arc], geo.angle0[arc], geo.sweep[arc] / length, geo.rise[arc] / length)
     for k in moving[kind == CURVE]:  # ellipses and NURBS, tabulated as cubic splines
+        from scipy.interpolate import CubicSpline  # here: scipy.interpolate costs a fresh process about 0.3 s of CPU
         seg, u0, length = cols.curves[k], float(seg_u0[k]), float(lengths[k])
         n = int(max(4, math.ceil(length / min(_CURVE_STEP, 0.25 * seg.min_radius))))
         s = np.linspace(0.0, length, n + 1)
@@ -614,14 +614,16 @@ class _RunFitter:
         return _Fit(knots, np.concatenate(coefs), offset, ok_any, dev_best, knot_pu)
 
 
-def _run_polys(fit: _Fit, r: int, ncp: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Knots, programmed arc length at each knot, and ascending power coefficients (n, 4, 3) of fitted run r."""
-    t = fit.knots[r]
-    c = fit.coef[fit.offset[r]:fit.offset[r] + ncp]
-    spl = BSpline(t, c, 3)
-    x = t[3:-3]
-    coef = np.stack([spl(x[:-1], nu=m) / math.factorial(m) for m in range(4)], axis=1)
-    return x, fit.knot_pu[r], coef
+def _runs_polys(fit: _Fit, runs: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Knots, programmed arc length at each knot, and ascending power coefficients (n, 4, 3) of fitted runs
+    ``runs``: the derivatives at each span's first knot, all runs at once."""
+    knots = [fit.knots[r] for r in runs]
+    ncp = np.array([len(k) - 4 for k in knots], dtype=int)
+    coef = np.concatenate([fit.coef[fit.offset[r]:fit.offset[r] + n] for r, n in zip(runs, ncp)])
+    basis = RunKnots.of(knots, np.r_[0, np.cumsum(ncp)[:-1]])
+    d = basis.evaluate(coef, np.repeat(np.arange(len(runs)), ncp - 3), np.concatenate([k[3:-4] for k in knots]), 3)
+    polys = np.split(np.stack([d[m] / math.factorial(m) for m in range(4)], axis=1), np.cumsum(ncp - 3)[:-1])
+    return [(k[3:-3], fit.knot_pu[r], p) for k, r, p in zip(knots, runs, polys)]
 
 
 # ---------------------------------------------------------------- corners between two lines
@@ -958,16 +960,15 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
         typical = np.array([np.median(widths[a:max(b, a + 1)]) for a, b in zip(lo_i, hi_i)])
         h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
-        pending, devs = fits, []
+        pending = fits
+        devs: list[float] = []
         for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
             fit = _RunFitter(raw, runs.ua[pending], runs.ub[pending], runs.free_a[pending], runs.free_b[pending],
                              tol_fit, h[np.searchsorted(fits, pending)], order=3 if g2 else 2).fit()
-            ncp = np.diff(np.r_[fit.offset, len(fit.coef)])
-            for i in range(len(pending)):
-                if fit.ok[i]:
-                    x, pu, coef = _run_polys(fit, i, ncp[i])
-                    fit_parts.append((pu, coef, np.diff(x)))
-                    devs.append(fit.deviation[i])
+            done = np.flatnonzero(fit.ok)
+            for x, pu, coef in _runs_polys(fit, done) if len(done) else []:
+                fit_parts.append((pu, coef, np.diff(x)))
+            devs.extend(fit.deviation[done].tolist())
             pending = pending[~fit.ok]
             h *= 0.5
             if not len(pending):

@@ -118,7 +118,8 @@ class TimeLaw:
         x = np.where(h > 0, (s - self.s[k]) / np.where(h > 0, h, 1.0), 0.0)
         u0, u1 = self.u[k], self.u[k + 1]
         m0, m1 = h / self.speed_u[k], h / self.speed_u[k + 1]  # du/dx at the ends
-        h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
+        x2, x3 = x**2, x**3
+        h00, h10, h01, h11 = 2 * x3 - 3 * x2 + 1, x3 - 2 * x2 + x, -2 * x3 + 3 * x2, x3 - x2
         u = np.clip(h00 * u0 + h10 * m0 + h01 * u1 + h11 * m1, u0, u1)
         index = curve.interval_at(0.5 * (u0 + u1))
         # lines and arcs have a constant ds/du, where the Hermite cubic is the exact (linear) map already
@@ -164,37 +165,54 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
         parts.append(curve.u0[k] + width[k] * _ranks(reps) / n[k])
     u = np.unique(np.concatenate(parts))
     # where the curve turns or its curvature changes quickly, halve the intervals until it does not; lines
-    # never need it, and an interval that passed keeps passing, so each round checks only the new halves
-    check = ~line[curve.interval_at(0.5 * (u[:-1] + u[1:]))]
+    # never need it, and an interval that passed keeps passing, so each round checks only the new halves,
+    # whose ends but the middle were evaluated already (a half lies in its parent's curve interval k)
+    at = np.flatnonzero(~line[curve.interval_at(0.5 * (u[:-1] + u[1:]))])
+    a, b = u[at], u[at + 1]
+    k = curve.interval_at(0.5 * (a + b))
+    tan, kap = _turning(curve, np.r_[a, b], np.r_[k, k])
+    tan_a, tan_b, kap_a, kap_b = tan[:, :len(at)], tan[:, len(at):], kap[:len(at)], kap[len(at):]
     for _ in range(_REFINE):
-        at = np.flatnonzero(check)
         if not len(at):
             break
-        a, b = u[at], u[at + 1]
-        mid = 0.5 * (a + b)
-        k = curve.interval_at(mid)
-        _, d1, d2 = curve.evaluate(np.r_[a, b], 2, index=np.r_[k, k])
-        sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
-        tan = d1 / sp[:, None]
-        kap = np.linalg.norm(np.cross(d1, d2), axis=1) / sp**3
-        m = len(k)
-        turn = np.linalg.norm(tan[m:] - tan[:m], axis=1)
-        change = np.abs(kap[m:] - kap[:m]) > _KAPPA_CHANGE * np.maximum(kap[m:], kap[:m])
+        d = tan_b - tan_a
+        turn = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        change = np.abs(kap_b - kap_a) > _KAPPA_CHANGE * np.maximum(kap_b, kap_a)
         # arcs (even curvature) keep the coarse step: fitted cubics and lone corners' parabolas take the fine one
         step = np.where(arc[k], _TURN_STEP, turn_step)
-        split = ((turn > step) | change) & (b - a > 1e-4)
-        if not split.any():
+        split = np.flatnonzero(((turn > step) | change) & (b - a > 1e-4))
+        if not len(split):
             break
-        new = mid[split]
-        u = np.unique(np.r_[u, new])
-        fresh = np.isin(u, new)
-        check = fresh[:-1] | fresh[1:]
+        mid, k = 0.5 * (a[split] + b[split]), np.repeat(k[split], 2)
+        tan_m, kap_m = _turning(curve, mid, k[::2])
+        u = np.insert(u, at[split] + 1, mid)
+        first = at[split] + np.arange(len(split))  # where each split interval's start is now
+        at = (first[:, None] + np.arange(2)).ravel()
+        a, b = _halves(a[split], mid, b[split])
+        kap_a, kap_b = _halves(kap_a[split], kap_m, kap_b[split])
+        tan_a, tan_b = _halves(tan_a[:, split], tan_m, tan_b[:, split])
     at = np.flatnonzero(np.isin(u, stop_u))
     few = np.flatnonzero(np.diff(at) < 3)
     if len(few):
         a, b = u[at[few]], u[at[few + 1]]
         u = np.unique(np.r_[u, a + (b - a) / 3.0, a + 2.0 * (b - a) / 3.0])
     return u
+
+
+def _turning(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangent rows (3, n) and curvature at u on intervals ``index``, worked along the points (sums as
+    np.linalg.norm and np.cross take them)."""
+    d1, d2 = (d.T for d in curve.evaluate(u, 2, index=index, lowest=1))
+    sp = np.maximum(np.sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]), 1e-300)
+    c = (d1[1] * d2[2] - d1[2] * d2[1], d1[2] * d2[0] - d1[0] * d2[2], d1[0] * d2[1] - d1[1] * d2[0])
+    return d1 / sp, np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / sp**3
+
+
+def _halves(lo: np.ndarray, mid: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values at the ends of intervals split at their middles (along the last axis): at the halves' ends, in order."""
+    def pair(x, y):
+        return np.stack([x, y], axis=-1).reshape(*x.shape[:-1], -1)
+    return pair(lo, mid), pair(mid, hi)
 
 
 def _ranks(reps: np.ndarray) -> np.ndarray:
@@ -207,10 +225,15 @@ def _scan(cap_node: np.ndarray, ds: np.ndarray, budget: tuple[np.ndarray, np.nda
     """Fastest y at the nodes with y <= cap_node, y_{k+1} - y_k <= 2 up_k ds_k and y_k - y_{k+1} <= 2 down_k ds_k
     (``budget`` = (up, down))."""
     up, down = budget
-    c = np.concatenate([[0.0], np.cumsum(2.0 * down * ds)])
-    back = np.minimum.accumulate((cap_node + c)[::-1])[::-1] - c
-    c = np.concatenate([[0.0], np.cumsum(2.0 * up * ds)])
-    return np.minimum.accumulate(back - c) + c
+    c = np.zeros(len(ds) + 1)  # the sums from the first node, filled in place (no copies of 1e5-long arrays)
+    np.cumsum(2.0 * down * ds, out=c[1:])
+    back = np.add(cap_node, c)[::-1]
+    np.minimum.accumulate(back, out=back)
+    back = back[::-1] - c
+    np.cumsum(2.0 * up * ds, out=c[1:])
+    back -= c
+    np.minimum.accumulate(back, out=back)
+    return np.add(back, c, out=back)
 
 
 @dataclass
@@ -226,7 +249,7 @@ class _Geometry:
 
 def frame(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, ...]:
     """Tangent T, curvature vector K and P3 = d3p/ds3 by arc length at u (each (n, 3)), and ds/du there."""
-    _, d1, d2, d3 = curve.evaluate(u, 3, index=index)
+    d1, d2, d3 = curve.evaluate(u, 3, index=index, lowest=1)
     sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
     tan = d1 / sp[:, None]
     sp1 = np.einsum("ij,ij->i", d1, d2) / sp  # d|p'|/du
@@ -405,7 +428,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     m = len(du)
     # arc length of every grid interval (Gauss-Legendre), and the geometry at both ends and the middle
     gl_u = 0.5 * (u[:-1] + u[1:])[:, None] + 0.5 * du[:, None] * _GL3_X[None, :]
-    d1 = curve.evaluate(gl_u.ravel(), 1, index=np.repeat(k_iv, len(_GL3_X)))[1]
+    d1 = curve.evaluate(gl_u.ravel(), 1, index=np.repeat(k_iv, len(_GL3_X)), lowest=1)[0]
     ds = 0.5 * du * (np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(m, -1) @ _GL3_W)
     s = np.concatenate([[0.0], np.cumsum(ds)])
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:]])
@@ -640,8 +663,9 @@ class _Phases:
         k = np.clip(np.searchsorted(self.start, t, side="right") - 1, 0, len(self.start) - 1)
         return k, np.clip(t - self.start[k], 0.0, self.dur[k])
 
-    def s(self, t: np.ndarray) -> np.ndarray:
-        k, tau = self.at(t)
+    def s(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+        """Arc length at times t; ``where``: ``at(t)``, if known."""
+        k, tau = self.at(t) if where is None else where
         return self.s0[k] + tau * (self.v0[k] + 0.5 * self.a[k] * tau)
 
     @cached_property
@@ -715,8 +739,8 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
 def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Arc length of the (filtered) motion at times ts, and the dwell segment each waits in (-1 elsewhere)."""
     if law.window <= 0:
-        k, _ = ph.at(ts)
-        return ph.s(ts), ph.owner[k]
+        where = ph.at(ts)
+        return ph.s(ts, where), ph.owner[where[0]]
     tj = law.window
     at0, at1 = ph.at(ts - tj), ph.at(ts)
     s = ((ph.integral(ts, at1) - ph.integral(ts - tj, at0)) / np.longdouble(tj)).astype(float)

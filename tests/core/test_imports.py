@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 
@@ -105,3 +106,28 @@ def test_validate_builds_only_the_models_it_uses():
     for unused in ("flowmc.nodes.devices.JogParams", "flowmc.nodes.devices.WaitInputParams",
                    "flowmc.nodes.devices.PreflightParams", "flowmc.nodes.planning.StopAndGoParams"):
         assert unused not in built
+
+
+PLAN = """
+import sys
+from flowmc.motion.gcode import read_gcode
+from flowmc.motion.machine import Axis, Machine
+from flowmc.motion.planner import plan_smooth
+path = read_gcode(sys.argv[1])
+machine = Machine(axes=tuple(Axis(name=n, min=-500, max=500, vmax=200, amax=200, jmax=5000) for n in "XYZ"))
+plan = plan_smooth(path, machine, tolerance=0.05)
+print(plan.smoothed.fitted > 0, sorted(m for m in sys.modules if m.startswith("scipy.") and m.count(".") == 1
+                                          and not m.startswith(("scipy._", "scipy.__"))))
+"""
+
+
+def test_trapezoid_planning_imports_only_scipy_linalg(tmp_path):
+    """Cold start of a plan (benchmarks/cam_programs.py --cold-only times it): reading G-code and planning a
+    trapezoid plan needs scipy's banded solver only; scipy.interpolate, optimize and sparse (about 0.5 s of CPU
+    to import) come when a program has tabulated curves or an S-curve plan is retimed."""
+    program = tmp_path / "wave.ngc"  # short lines turning every way: runs of them are fitted by splines
+    program.write_text("G21 G90\nG1 F3000 X0 Y0\n" + "".join(
+        f"X{0.3 * i:.3f} Y{math.sin(0.5 * i) + (i % 3) * 0.04:.3f}\n" for i in range(1, 200)) + "M2\n")
+    proc = subprocess.run([sys.executable, "-c", PLAN, str(program)], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == "True ['scipy.linalg', 'scipy.version']"

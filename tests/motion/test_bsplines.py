@@ -44,3 +44,16 @@ def test_design_rows_and_derivatives_match_scipy_run_by_run():
             spl = BSpline(rk.knots[r], coef[rk.offset[r]:rk.offset[r] + rk.spans[r] + 3], 3)
             for m in range(4):
                 np.testing.assert_allclose(values[m][sel], spl(x[sel], nu=m), rtol=1e-12, atol=1e-12)
+
+
+def test_runs_of_given_knots_evaluate_as_the_runs_that_made_them():
+    """RunKnots.of (a fit's knots, kept run by run) gives the same values as the equal-span runs they came from,
+    at the spans' first knots too (where the smoothing takes each span's power coefficients)."""
+    rk, coef, run, x = _runs(False)
+    again = RunKnots.of(rk.knots, rk.offset)
+    np.testing.assert_array_equal(again.flat, rk.flat)
+    at_knots = np.concatenate([k[3:-4] for k in rk.knots])
+    knot_run = np.repeat(np.arange(3), rk.spans)
+    for r, xs in ((run, x), (knot_run, at_knots)):
+        for mine, theirs in zip(again.evaluate(coef, r, xs, 3), rk.evaluate(coef, r, xs, 3)):
+            np.testing.assert_array_equal(mine, theirs)
