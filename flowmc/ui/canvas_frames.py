@@ -19,9 +19,10 @@ A new page draws its scene first when it is laid out and framed: the canvas star
 page, the right-hand column docks after the server's first messages are in, and the editor frames the
 graph again for the size the page reports. Each of those steps used to be a frame with every node in it
 (300-700 ms each for 120 nodes on the loaded machine, against about 30 ms for a frame with the scene
-hidden), none of which a person looked at. So until the server has answered the canvas's present size
-(``framed``) while the column is docked, frames draw the background only; at most ``FIRST_MS``, and a
-press or wheel on the canvas shows the scene at once.
+hidden), none of which a person looked at. So until the server's GUI is in the page (the page script
+has hidden its channel's row: the panels are laid out, docked or not) and the server has answered the
+canvas's present size (``framed``), frames draw the background only; at most ``FIRST_MS``, and a press
+or wheel on the canvas shows the scene at once.
 """
 
 from __future__ import annotations
@@ -36,7 +37,6 @@ HOLD_MS = 400  # longest a press holds the frames back (the editor answers a cli
 HOVER_MS = 150
 ANSWER_MS = 50  # the answer's frame waits this long, so that the page shows the side panel's text first
 FIRST_MS = 2500  # longest a new page's scene waits for its layout and framing
-DOCKED_PX = 50  # the canvas is this much narrower than the page once the right-hand column is docked
 
 _JS = """
 (function flowmcFrames() {
@@ -61,7 +61,7 @@ _JS = """
   const release = () => { if (st.until) { st.until = 0; real(); } };  // the frame: everything held, drawn at once
   const c = m.canvas;  // the first drawing: once laid out and framed (see the module's docstring)
   const ready = () => !!st.framed && st.framed[0] === c.clientWidth && st.framed[1] === c.clientHeight
-    && c.clientWidth <= window.innerWidth - DOCKED_PX;
+    && !!window.flowmc && window.flowmc.guiShown === true;  // the panels are in the page: laid out
   const show = (why) => {  // why: "framed", "timeout" or "input" (the browser tests check it)
     if (!st.gated) return;
     st.gated = false; st.shown = why; clearInterval(st.gate); m.scene.visible = true; real();
@@ -108,7 +108,7 @@ _JS = """
   }, true);
 })();
 """.replace("HOLD_MS", str(HOLD_MS)).replace("HOVER_MS", str(HOVER_MS)).replace("ANSWER_MS", str(ANSWER_MS)) \
-    .replace("FIRST_MS", str(FIRST_MS)).replace("DOCKED_PX", str(DOCKED_PX))
+    .replace("FIRST_MS", str(FIRST_MS))
 
 
 def install(client: Any) -> None:
