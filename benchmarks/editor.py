@@ -8,10 +8,9 @@
 - click -> selection frame: a click on a node until its frame has the selection colour in the scene
   and one more frame was drawn, timed inside the page from the pointerdown event.
 - click -> side panel: from the same pointerdown until the side panel names the selected node.
-- open 120 nodes: ``page.goto`` until every node body is in the scene, the camera is locked flat and a frame
-  was drawn with the scene shown (a new page shows it once laid out and framed); beside it the same for the
-  4-node graph, which is mostly the page's own start-up (viser's client). Chromium runs without its per-window
-  address-bar popup (``browser_helpers.ARGS`` says why).
+- open 120 nodes: ``page.goto`` until every node body is in the scene and the camera is locked flat;
+  beside it the same for the 4-node graph, which is mostly the page's own start-up (viser's client).
+  Chromium runs without its per-window address-bar popup (``browser_helpers.ARGS`` says why).
 - drag-wire latency: a wire dragged from one port to another, from the pointer's release until the
   new wire is drawn (the wires' line node holds one more curve).
 

@@ -11,7 +11,7 @@ from typing import Any, Callable
 import numpy as np
 import viser
 
-from flowmc.ui import canvas_frames, viser_internals
+from flowmc.ui import viser_internals
 
 __all__ = ["FOV", "setup", "frame", "framed_here", "resized", "view_px", "initial", "screen_rect_to_world",
            "screen_px_per_world", "world_at"]
@@ -57,19 +57,16 @@ def view_px(cam: viser.CameraHandle) -> tuple[float, float]:
 
 def resized(client: viser.ClientHandle, data: Any) -> None:
     """The page's report of its view's size, ``{"w": .., "h": ..}`` in CSS pixels: frame again when it
-    changed (and the user has not moved the camera), then answer it. The page is not trusted: anything
-    else is dropped."""
+    changed (and the user has not moved the camera). The page is not trusted: anything else is dropped."""
     view = _VIEWS.get(client)
     try:
         size = (int(data["w"]), int(data["h"]))
     except (TypeError, KeyError, ValueError, OverflowError):
         return
-    if view is None or not (0 < size[0] <= MAX_VIEW_PX and 0 < size[1] <= MAX_VIEW_PX):
+    if view is None or not (0 < size[0] <= MAX_VIEW_PX and 0 < size[1] <= MAX_VIEW_PX) or size == view.size:
         return
-    if size != view.size:
-        view.size = size
-        view.refit()
-    canvas_frames.framed(client, size)  # a new page draws its scene once this answer is in
+    view.size = size
+    view.refit()
 
 
 def setup(client: viser.ClientHandle, frame_again: Callable[[], None]) -> None:

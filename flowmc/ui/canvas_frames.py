@@ -14,15 +14,6 @@ canvas and the editor's answer (the first frame a server message asks for) wait 
 most ``HOLD_MS``, and then ``ANSWER_MS`` more: the side panel's text, which viser applies with the
 same messages, reaches the page before the frame takes the thread. A drag or a pan draws at once.
 A hover outline is drawn ``HOVER_MS`` late, or with the click's answer when a press comes first.
-
-A new page draws its scene first when it is laid out and framed: the canvas starts as wide as the
-page, the right-hand column docks after the server's first messages are in, and the editor frames the
-graph again for the size the page reports. Each of those steps used to be a frame with every node in it
-(300-700 ms each for 120 nodes on the loaded machine, against about 30 ms for a frame with the scene
-hidden), none of which a person looked at. So until the server's GUI is in the page (the page script
-has hidden its channel's row: the panels are laid out, docked or not) and the server has answered the
-canvas's present size (``framed``), frames draw the background only; at most ``FIRST_MS``, and a press
-or wheel on the canvas shows the scene at once.
 """
 
 from __future__ import annotations
@@ -31,12 +22,11 @@ from typing import Any
 
 from flowmc.ui import viser_internals
 
-__all__ = ["install", "framed", "HOLD_MS", "HOVER_MS", "FIRST_MS"]
+__all__ = ["install", "HOLD_MS", "HOVER_MS"]
 
 HOLD_MS = 400  # longest a press holds the frames back (the editor answers a click in tens of ms when not loaded)
 HOVER_MS = 150
 ANSWER_MS = 50  # the answer's frame waits this long, so that the page shows the side panel's text first
-FIRST_MS = 2500  # longest a new page's scene waits for its layout and framing
 
 _JS = """
 (function flowmcFrames() {
@@ -59,18 +49,6 @@ _JS = """
   if (!real || !m.canvas || !m.scene) return;
   const st = window.__flowmcFrames = { until: 0, held: 0, drawn: 0, hover: null, at: null, answered: false };
   const release = () => { if (st.until) { st.until = 0; real(); } };  // the frame: everything held, drawn at once
-  const c = m.canvas;  // the first drawing: once laid out and framed (see the module's docstring)
-  const ready = () => !!st.framed && st.framed[0] === c.clientWidth && st.framed[1] === c.clientHeight
-    && !!window.flowmc && window.flowmc.guiShown === true;  // the panels are in the page: laid out
-  const show = (why) => {  // why: "framed", "timeout" or "input" (the browser tests check it)
-    if (!st.gated) return;
-    st.gated = false; st.shown = why; clearInterval(st.gate); m.scene.visible = true; real();
-  };
-  st.gated = true; st.framed = null; st.shown = null; m.scene.visible = false;
-  st.framedAt = (w, h) => { st.framed = [w, h]; if (ready()) show("framed"); };
-  st.gate = setInterval(() => { if (ready()) show("framed"); }, 30);
-  setTimeout(() => show("timeout"), FIRST_MS);
-  c.addEventListener("wheel", () => show("input"), { capture: true, passive: true });
   m.requestRender = function () {
     const e = window.event;
     if (st.until && e && e.type === "message") {  // the answer: its side-panel text goes into the page first
@@ -87,7 +65,7 @@ _JS = """
     const draw = renderer.render;
     renderer.render = function (scene) {
       if (scene === m.scene && st.until && performance.now() < st.until) { st.held += 1; return; }
-      if (scene === m.scene && scene.visible) st.drawn += 1;  // frames really drawn (benchmarks/editor.py waits for one)
+      if (scene === m.scene) st.drawn += 1;  // frames really drawn (benchmarks/editor.py waits for one)
       return draw.apply(this, arguments);
     };
   };
@@ -97,7 +75,6 @@ _JS = """
   };
   real();
   m.canvas.addEventListener("pointerdown", (e) => {
-    show("input");
     if (e.button !== 0) return;
     st.until = performance.now() + HOLD_MS; st.at = [e.clientX, e.clientY]; st.answered = false;
     if (st.hover) { clearTimeout(st.hover); st.hover = null; }  // the outline comes with the answer's frame
@@ -107,19 +84,10 @@ _JS = """
     if (st.until && st.at && Math.hypot(e.clientX - st.at[0], e.clientY - st.at[1]) > 3) release();
   }, true);
 })();
-""".replace("HOLD_MS", str(HOLD_MS)).replace("HOVER_MS", str(HOVER_MS)).replace("ANSWER_MS", str(ANSWER_MS)) \
-    .replace("FIRST_MS", str(FIRST_MS))
+""".replace("HOLD_MS", str(HOLD_MS)).replace("HOVER_MS", str(HOVER_MS)).replace("ANSWER_MS", str(ANSWER_MS))
 
 
 def install(client: Any) -> None:
-    """In ``client``'s page: the scene drawn first once laid out and framed, the background-image quad hidden
-    while it shows no image, frames held from a press on the canvas until the editor answers, hover outlines
-    drawn a moment late."""
+    """In ``client``'s page: the background-image quad hidden while it shows no image, frames held from a
+    press on the canvas until the editor answers, hover outlines drawn a moment late."""
     viser_internals.run_js(client, _JS)
-
-
-def framed(client: Any, size: tuple[int, int]) -> None:
-    """Tell ``client``'s page that the editor has framed its view for ``size`` (CSS pixels), the page's
-    report it answers: a new page's first drawing waits for that (after the camera messages, on the same
-    connection)."""
-    viser_internals.run_js(client, f"window.__flowmcFrames && window.__flowmcFrames.framedAt({int(size[0])}, {int(size[1])});")

@@ -124,7 +124,7 @@ _PAGE_JS = """
     if (frame.getAttribute("src") !== src) frame.setAttribute("src", src);
   };
   const hide = (label) => { if (label.textContent === LABEL) { const row = label.closest(".mantine-Flex-root");
-    if (row) row.style.display = "none"; flowmc.guiShown = true; } };  // the server's GUI is in the page
+    if (row) row.style.display = "none"; } };
   const refocus = (table) => {  // a grid redrawn after an edit: back to the cell that had the focus
     const f = flowmc.gridFocus;
     if (!f || table.dataset.flowmcGrid !== f.grid || (document.activeElement && document.activeElement !== document.body)) return;

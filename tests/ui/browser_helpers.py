@@ -53,8 +53,6 @@ _PROJECT = """([x, y]) => { const m = window.__viserMutable; const o = m.nodeRef
   const r = m.canvas.getBoundingClientRect(); return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height]; }"""
 
 
-_SHOWN = "window.__flowmcFrames && window.__flowmcFrames.gated === false && window.__flowmcFrames.drawn > 0"
-
 _STILL = """() => new Promise(resolve => {
   const m = window.__viserMutable, key = () => { const r = m.canvas.getBoundingClientRect();
     return JSON.stringify([Math.round(r.left), Math.round(r.width), Math.round(r.height), m.camera.position.toArray().map(v => v.toFixed(4))]); };
@@ -74,13 +72,11 @@ class EditorPage:
 
     def open(self, timeout: float = 30.0, query: str = "") -> float:
         """Load the page (``query``: more URL parameters, e.g. viser's ``fixedDpr=0.75``); returns seconds
-        until every node is in the scene, the camera is locked and a frame with the scene shown was drawn
-        (a new page draws its scene first once laid out and framed: ``flowmc.ui.canvas_frames``)."""
+        until every node is in the scene and the camera is locked."""
         start = time.perf_counter()
         self.page.goto(self.editor.url + (f"&{query}" if query else ""))
         self.wait_nodes(len(self.editor.canvas.boxes), timeout)
         self.page.wait_for_function("window.__flowmcCameraLocked === true", timeout=timeout * 1000)
-        self.page.wait_for_function(_SHOWN, timeout=timeout * 1000)
         return time.perf_counter() - start
 
     def settled(self, timeout: float = 15.0) -> None:

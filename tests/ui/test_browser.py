@@ -219,31 +219,3 @@ def test_frames_held_for_a_click_are_drawn_with_its_answer(browser, editor):
     page.mouse.click(*ui.screen(box.x + box.w * 0.6, box.y - box.h * 0.6))  # the same node again: no change, no answer
     page.wait_for_function("window.__flowmcFrames.until === 0", timeout=5000)
     page.close()
-
-
-# Every WebGL clear (one per frame): the canvas's CSS width, whether the scene was shown, and how many node bodies it held.
-_FRAME_LOG = """(() => { const log = window.__frameLog = []; const get = HTMLCanvasElement.prototype.getContext;
-  HTMLCanvasElement.prototype.getContext = function (kind, attrs) { const ctx = get.call(this, kind, attrs);
-    if (ctx && kind === "webgl2" && !ctx.__logged) { ctx.__logged = true; const canvas = this, clear = ctx.clear.bind(ctx);
-      ctx.clear = (bits) => { const m = window.__viserMutable, body = m && m.nodeRefFromName && m.nodeRefFromName["/canvas/body"];
-        let n = 0; if (body) body.traverse(c => { if (c.isInstancedMesh) n = Math.max(n, c.instancesCount ?? c.count); });
-        log.push([canvas.clientWidth, !!(m && m.scene && m.scene.visible), n]); return clear(bits); }; }
-    return ctx; }; })();"""
-
-
-def test_a_new_page_draws_its_nodes_first_docked_and_framed(browser, editor):
-    """A new page shows its scene once the right-hand column has docked and the editor has framed the view at
-    that size: no frame with nodes is drawn at the full width the canvas starts with (each such frame cost
-    300-700 ms of a 120-node open under software WebGL, and nobody saw it)."""
-    ui = EditorPage(browser, editor)
-    ui.page.add_init_script(_FRAME_LOG)
-    ui.open()
-    ui.settled()
-    page = ui.page
-    assert page.evaluate("window.__flowmcFrames.shown") == "framed"
-    log = page.evaluate("window.__frameLog")
-    width, full = page.evaluate("[window.__viserMutable.canvas.clientWidth, window.innerWidth]")
-    assert width < full - 100  # docked: the right-hand column took its place
-    with_nodes = [w for w, shown, n in log if shown and n > 0]
-    assert with_nodes and set(with_nodes) == {width}, log
-    page.close()
