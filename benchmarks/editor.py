@@ -10,6 +10,7 @@
 - click -> side panel: from the same pointerdown until the side panel names the selected node.
 - open 120 nodes: ``page.goto`` until every node body is in the scene and the camera is locked flat;
   beside it the same for the 4-node graph, which is mostly the page's own start-up (viser's client).
+  Chromium runs without its per-window address-bar popup (``browser_helpers.ARGS`` says why).
 - drag-wire latency: a wire dragged from one port to another, from the pointer's release until the
   new wire is drawn (the wires' line node holds one more curve).
 

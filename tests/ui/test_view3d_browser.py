@@ -17,7 +17,8 @@ from flowmc.ui.view3d import ToolpathView
 pytestmark = pytest.mark.browser
 
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                 "--disable-features=WebUIOmniboxPopup,WebUIOmniboxAimPopup"]  # as browser_helpers.ARGS says why
 
 
 def _reddish(img: np.ndarray) -> np.ndarray:
