@@ -20,6 +20,7 @@ from typing import Literal
 import numpy as np
 
 from flowmc.errors import PlanningError
+from flowmc.motion.curve import PlannedCurve
 from flowmc.motion.jerk_retime import retime_curvature_bound
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.machine import Machine
@@ -76,8 +77,7 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
     if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
         sm = faster_reshaped(sm, path, lim, tolerance, lambda curve: plan_time_law(
-            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, lambda u: sm.seg_feed[curve.segment_at(u)], lim, jerk=False,
-            mend_swings=True))
+            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=False, mend_swings=True))
     if sm.stopped is None:
         law, u, dwell_seg, pos = _timed(path, machine, lim, sm, jerk)
         if jerk:
@@ -115,7 +115,7 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
     curve = sm.curve
 
     def planned(mend_swings: bool):
-        law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm), lim, jerk=jerk,
+        law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=jerk,
                             mend_swings=mend_swings)
         u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
         pos = curve.points(u)
@@ -128,15 +128,16 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
     return law, u, dwell_seg, pos
 
 
-def _feed(sm: Smoothed):
+def _feed(seg_feed: np.ndarray, curve: PlannedCurve):
+    """The path-speed cap at curve parameter u: its programmed segment's feed."""
     def feed_of_u(u):
-        return sm.seg_feed[sm.curve.segment_at(u)]
+        return seg_feed[curve.segment_at(u)]
     return feed_of_u
 
 
 def _retimed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, law, u, dwell_seg, pos):
     """A jerk-limited plan's samples, retimed by flowmc.motion.jerk_retime where that gains."""
-    retimed = retime_curvature_bound(law, sm.curve, lim, _feed(sm), machine.period, sm.blend_u)
+    retimed = retime_curvature_bound(law, sm.curve, lim, _feed(sm.seg_feed, sm.curve), machine.period, sm.blend_u)
     if retimed is not None and len(retimed[0]) < len(u):
         u, dwell_seg, pos = retimed
         pos[0], pos[-1] = path.start, path.end
