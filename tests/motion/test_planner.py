@@ -252,6 +252,26 @@ def test_corners_with_a_spare_axis_take_two_parabolas_and_the_time_law_counts_th
     assert both.cycle_time < 0.98 * one.cycle_time  # 1.980 s, 2.019 s with the plain law, 2.030 s with one parabola
 
 
+def test_sharp_corners_fitted_in_a_run_are_passed_faster_on_caps_that_leave_a_tangential_budget(monkeypatch):
+    # a sawtooth in YZ drawn by 0.25 mm chords (74-degree corners, each fitted on its own in the run): at caps of
+    # 0.999 of what the normal terms allow the speed cannot follow the curvature's steep rise and fall through a
+    # fitted corner; the law planned with caps at 0.995 too passes them faster (1.103 s, 1.176 s without)
+    import flowmc.motion.timelaw as timelaw
+
+    corners = np.array([[0.0, 0.0], [2.0, 1.5], [4.0, 0.0], [6.0, 1.5], [8.0, 0.0], [10.0, 1.5], [12.0, 0.0]])
+    pts = np.vstack([corners[:1]] + [a + (b - a) * np.linspace(0.0, 1.0, 11)[1:, None]
+                                     for a, b in zip(corners[:-1], corners[1:])])
+    path = Path.polyline(np.c_[np.zeros(len(pts)), pts], feed=200.0)
+    m = machine(period=0.001)
+    fast = plan_smooth(path, m, tolerance=TOL)
+    assert peak_ratio(fast.trajectory, np.full(3, 200.0), order=1) <= 1.0 + 1e-9
+    assert peak_ratio(fast.trajectory, np.full(3, 200.0), order=2) <= 1.0 + 1e-9
+    to_path, from_path = deviation_both_ways(fast.trajectory, path)
+    assert to_path <= TOL and from_path <= TOL
+    monkeypatch.setattr(timelaw, "_RHO_LOWER", ())
+    assert fast.cycle_time < 0.96 * plan_smooth(path, m, tolerance=TOL).cycle_time
+
+
 def test_zigzag40_s_curve_passes_its_corners_on_jerk_limited_blends_within_1_3_times_the_trapezoid():
     # 39 lone 60-degree corners: each gets two cubics with zero curvature at both ends (curvature-continuous
     # with its lines) laid in the moved-out corner, and the speed dips at the blend's middle instead of
