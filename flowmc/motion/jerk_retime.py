@@ -29,6 +29,8 @@ there the stretches run from the top speed before a blend to the top speed after
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from flowmc.motion.curve import PlannedCurve
@@ -36,20 +38,15 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.sample_clock import sample_times
 from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_length_at, frame, speed_at
 
-__all__ = ["retime_curvature_bound"]
+__all__ = ["Effort", "PLANNED", "retime_curvature_bound"]
 
 _JERK_SHARE = 0.985  # the programs aim at this share of jmax at their points (the samples are checked against 1)
 _ACCEL_SHARE = 0.999
 _SUB = np.arange(4) / 3  # where in each piece of the spline the constraints are held (with three, a stretch of the
 # small Gosper curve of the tests broke the jerk limit between them and was left as planned)
 _FINE, _FINE_MAX = 8, 512  # constant-acceleration steps per piece when sampling the result
-_STEP_PERIODS = 3.0  # control points about this many sampling periods' travel apart (2: flowsnake 5.806 s of
-# motion instead of 5.829, for twice the planning time)
 _BLEND_REACH = 4.0  # windows around corner blends reach this many filter lengths Tj either side, at most
-_ROUNDS = 2
-_GAIN = 0.005  # no further round once a round gained less than this share of the stretch's (linearised) time
 _CHUNK = 800  # control points per linear program
-_TRUST = 0.5  # each round keeps u within this share of the last one
 _P3_BOUND, _BOUND_SHARE = 0.5, 0.5  # a stretch is retimed where |P3_i| v^3 is over _P3_BOUND of jmax on at
 # least _BOUND_SHARE of its samples: flowsnake's do; 3D_Chips's 100-odd stretches with a tenth or more
 # would gain 2.6 % (1.266 -> 1.233 of the trapezoid) for ten times the planning time
@@ -59,8 +56,24 @@ _SETTLED = 0.5  # the retimed part runs where the speed is over this share of th
 _END_FIT = 3  # samples each side of a stretch's ends the boundary state (u, u', u'') is fitted on
 
 
+@dataclass(frozen=True)
+class Effort:
+    """How hard the linear programs work: control points ``step_periods`` sampling periods' travel apart, at most
+    ``rounds`` rounds, a further one only while the last gained ``gain`` of the stretch's (linearised) time or
+    more, each keeping u within ``trust`` of the last. The planner's (PLANNED) is what dense code affords;
+    benchmarks/retime_bound.py asks for more, to see how far a plan is from the best retiming of its curve."""
+
+    step_periods: float = 3.0
+    rounds: int = 2
+    gain: float = 0.005
+    trust: float = 0.5
+
+
+# flowsnake: 5.829 s of motion; more rounds or a wider trust region gain at most 0.2 %, controls two periods apart
+# 0.7 % for about twice the planning time, one period apart 1.2 % for ten times (benchmarks/retime_bound.py)
+PLANNED = Effort()
 def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, feed_of_u,
-                           period: float, blend_u: np.ndarray | None = None
+                           period: float, blend_u: np.ndarray | None = None, effort: Effort = PLANNED
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Curve parameter, dwell segment (-1 elsewhere) and position at t = kT of ``law``'s motion with every
     stretch where the curvature-change term holds the speed retimed (module docstring), and every corner
@@ -107,7 +120,7 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
     windows = []
     for k0, k1 in bound_stretches:
         strict = any(k0 <= a and b <= k1 for a, b in at_blends)
-        win = _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict)
+        win = _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict, effort)
         if win is not None and win[1] < (k1 - k0) * period * (1.0 - 1e-6):
             windows.append((k0, k1, *win))
     # a window whose samples (or the joins to the plan's) break a limit is left as planned
@@ -185,14 +198,14 @@ def _end_state(s: np.ndarray, v: np.ndarray, k: int) -> np.ndarray:
     return np.array([c[2], c[1], 2.0 * c[0]])
 
 
-def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict=False):
+def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict=False, effort=PLANNED):
     """The fastest u(s) found between samples k0 and k1 (a quadratic B-spline, see the module docstring),
     as constant-acceleration phases from s[k0], and how long it takes; None if a program fails. ``strict``:
     each program holds the limits themselves where it can (around corner blends, where the starting profile
     fitted to the plan's samples is over them at points, by up to 6.7 % on zigzag40), else never worse than
     the current profile."""
     d0, d1 = float(s[k0]), float(s[k1])
-    pieces = max(8, int(round((d1 - d0) / (_STEP_PERIODS * period * float(np.median(v[k0:k1 + 1]))))))
+    pieces = max(8, int(round((d1 - d0) / (effort.step_periods * period * float(np.median(v[k0:k1 + 1]))))))
     h = (d1 - d0) / pieces
     m = pieces + 2  # control points: piece j (1..m-2) is [node_j - h/2, node_j + h/2], node_j = d0 + (j - 1/2) h
     nodes = d0 + (np.arange(m) - 0.5) * h
@@ -238,7 +251,7 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict=Fal
     import scipy.sparse as sparse  # on first use: scipy.optimize alone costs a fresh process about 0.5 s of CPU
     from scipy.optimize import linprog
     best, best_time = c, np.inf
-    for rnd in range(_ROUNDS + 1):
+    for rnd in range(effort.rounds + 1):
         up = (basis * c[cols3]).sum(axis=1)
         if np.any(up <= 0):
             break
@@ -246,9 +259,9 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict=Fal
         gained = best_time - took
         if took < best_time:
             best, best_time = c, took
-        if rnd == _ROUNDS or gained < _GAIN * best_time:
+        if rnd == effort.rounds or gained < effort.gain * best_time:
             break
-        lo, hi = np.maximum(c * (1.0 - _TRUST), lo_c), c * (1.0 + _TRUST)
+        lo, hi = np.maximum(c * (1.0 - effort.trust), lo_c), c * (1.0 + effort.trust)
         lo[fixed] = hi[fixed] = c[fixed]
         blocks = []
         for i in axes:

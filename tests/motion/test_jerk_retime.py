@@ -103,3 +103,24 @@ def test_stretches_that_are_a_sliver_of_the_plan_are_not_retimed(monkeypatch):
     assert retimed() is not None
     monkeypatch.setattr(jerk_retime, "_MIN_SHARE", 0.4)
     assert retimed() is None
+
+
+def test_more_effort_retimes_the_same_curve_no_slower_within_every_per_axis_limit(monkeypatch):
+    # the planner's effort against more rounds with control points two periods apart, on the same time law and
+    # curve: the linear programs start from the same profile and keep their fastest, so more effort never loses
+    monkeypatch.setattr(jerk_retime, "_BOUND_SHARE", 0.1)
+    machine = cam_machine()
+    plan = plan_smooth(gosper(3, 0.03), machine, tolerance=0.05, profile="scurve")
+    curve, lim = plan.smoothed.curve, PathLimits.of(machine)
+
+    def retimed(effort):
+        return jerk_retime.retime_curvature_bound(plan.law, curve, lim,
+                                                  lambda u: plan.smoothed.seg_feed[curve.segment_at(u)],
+                                                  machine.period, effort=effort)
+
+    planned = retimed(jerk_retime.PLANNED)
+    harder = retimed(jerk_retime.Effort(step_periods=2.0, rounds=4, gain=0.0))
+    assert planned is not None and harder is not None
+    assert len(harder[0]) < len(planned[0])
+    v, a, j = peaks(harder[2], machine.period)
+    assert j <= 5000.0 and a <= 200.0 and v <= 200.0
