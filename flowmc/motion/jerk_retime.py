@@ -72,6 +72,8 @@ class Effort:
 # flowsnake: 5.829 s of motion; more rounds or a wider trust region gain at most 0.2 %, controls two periods apart
 # 0.7 % for about twice the planning time, one period apart 1.2 % for ten times (benchmarks/retime_bound.py)
 PLANNED = Effort()
+
+
 def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, feed_of_u,
                            period: float, blend_u: np.ndarray | None = None, effort: Effort = PLANNED
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
