@@ -16,6 +16,7 @@ derivatives up to the third (what per-axis jerk needs), vectorised by kind.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -116,13 +117,20 @@ class PlannedCurve:
             out[3 - lowest][arc] = ((r * d**3) * (sin * e1 - cos * e2)).T
         return out
 
+    @cached_property
+    def by_power(self) -> np.ndarray:
+        """``coef`` as (power, axis, interval), contiguous: a gather of intervals reads whole rows."""
+        return np.ascontiguousarray(self.coef.transpose(1, 2, 0))
+
     def _poly(self, u: np.ndarray, k: np.ndarray, order: int, lowest: int = 0) -> list[np.ndarray]:
-        # worked as (3, n) rows, so numpy's inner loops run along the points rather than over 3 columns
-        by_power = self.coef.transpose(1, 2, 0)
-        c0, c1, c2, c3 = (np.take(by_power[m], k, axis=1) for m in range(4))
+        # worked as (3, n) rows, so numpy's inner loops run along the points rather than over 3 columns; the
+        # constant term is gathered only for positions
+        by_power = self.by_power
+        c1, c2, c3 = (np.take(by_power[m], k, axis=1) for m in range(1, 4))
         x = u - self.u0[k]
         out = []
         if lowest <= 0:
+            c0 = np.take(by_power[0], k, axis=1)
             out.append(c0 + x * (c1 + x * (c2 + x * c3)))
         if order >= 1 and lowest <= 1:
             out.append(c1 + x * (2.0 * c2 + x * (3.0 * c3)))

@@ -133,7 +133,7 @@ class TimeLaw:
         """Newton steps on polynomial intervals (the only ones with a varying ds/du): |p'| from each row's
         coefficients, gathered once, worked as (axis, node, sample) so numpy's inner loops run along the samples."""
         u0, u1 = self.u[k], self.u[k + 1]
-        by_power = curve.coef.transpose(1, 2, 0)
+        by_power = curve.by_power
         c1, c2, c3 = (f * np.take(by_power[m], index, axis=1)[:, None, :] for m, f in ((1, 1.0), (2, 2.0), (3, 3.0)))
         start = curve.u0[index]
         nodes_x = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [u0, u], and u itself
@@ -259,9 +259,28 @@ def frame(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.nda
     return tan, kv, p3, sp
 
 
-def _geometry(curve: PlannedCurve, u: np.ndarray, index: np.ndarray, cols) -> tuple[_Geometry, np.ndarray]:
-    """Geometric derivatives at u, and ds/du there."""
-    tan, kv, p3, sp = frame(curve, u, index)
+def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``frame`` at every grid interval's start, middle and end (rows in that order), on its curve interval
+    ``k_iv``; an end is the next interval's start where both lie on one curve interval, so it is taken from
+    there rather than worked out again (the same arithmetic on the same numbers)."""
+    m = len(k_iv)
+    own = np.flatnonzero(np.r_[k_iv[1:] != k_iv[:-1], True])  # ends that are no start on the same interval
+    pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:][own]])
+    parts = frame(curve, pts, np.concatenate([k_iv, k_iv, k_iv[own]]))
+    out = []
+    for a in parts:
+        whole = np.empty_like(a, shape=(3 * m, *a.shape[1:]))  # in a's layout: frame's are by axis
+        whole[:2 * m] = a[:2 * m]
+        whole[2 * m:3 * m - 1] = a[1:m]
+        whole[2 * m + own] = a[2 * m:]
+        out.append(whole)
+    return tuple(out)
+
+
+def _geometry(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, cols) -> tuple[_Geometry, np.ndarray]:
+    """Geometric derivatives at every grid interval's start, middle and end (``_interval_frame``), and ds/du
+    there."""
+    tan, kv, p3, sp = _interval_frame(curve, u, k_iv)
     mask = np.zeros(3)
     mask[list(cols)] = 1.0
     return _Geometry(np.abs(tan) * mask, np.abs(kv) * mask, np.abs(p3) * mask, np.sign(tan) * kv * mask), sp
@@ -292,9 +311,8 @@ class _Budgets:
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
-        def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,)
-            w = a.reshape(3, m, 3).max(axis=0)
-            return [np.ascontiguousarray(w[:, i]) for i in range(3)]
+        def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,), column by column
+            return [np.max(a[:, i].reshape(3, m), axis=0) for i in range(3)]
 
         t, k, p3 = worst(g.t), worst(g.k), worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
@@ -431,8 +449,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     d1 = curve.evaluate(gl_u.ravel(), 1, index=np.repeat(k_iv, len(_GL3_X)), lowest=1)[0]
     ds = 0.5 * du * (np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(m, -1) @ _GL3_W)
     s = np.concatenate([[0.0], np.cumsum(ds)])
-    pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:]])
-    geo, sp = _geometry(curve, pts, np.tile(k_iv, 3), lim.cols)
+    geo, sp = _geometry(curve, u, k_iv, lim.cols)
     speed_u = np.r_[sp[:m], sp[-1]]
     feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
