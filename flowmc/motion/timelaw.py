@@ -80,6 +80,7 @@ _WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): th
 _SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over half the budget less than this
 _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
+_CHUNK = 16384  # intervals whose budgets are worked out together (see _Budgets._parts)
 
 
 @dataclass(frozen=True, eq=False)
@@ -339,7 +340,31 @@ class _Budgets:
         """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
         up to twice the budget within Tj), elsewhere for jumps of up to the budget. ``least`` (without a jerk
         limit only): the speed^2 is at least this on the interval, so a normal term that helps counts that
-        much (else it counts as at rest)."""
+        much (else it counts as at rest). Worked out _CHUNK intervals at a time (``_parts``)."""
+        n = len(level)
+        if n <= _CHUNK or not self.axes:
+            return self._budgets(level, swing, least)
+        up, down = np.empty(n), np.empty(n)
+        for part, at in self._parts:
+            up[at], down[at] = part._budgets(level[at], None if swing is None else swing[at],
+                                             None if least is None else least[at])
+        return up, down
+
+    @cached_property
+    def _parts(self) -> list[tuple[_Budgets, slice]]:
+        """These budgets over every _CHUNK intervals: the same terms (views), so the same numbers, while every
+        temporary of a part stays in the processor's cache (one pass over the whole arrays per term is
+        bound by memory: about a third slower for 3D_Chips' 152,000 intervals)."""
+        parts = []
+        for start in range(0, len(self.axes[0]["alpha"]), _CHUNK):
+            at = slice(start, start + _CHUNK)
+            part = object.__new__(_Budgets)
+            part.window, part.axes = self.window, [{key: v[at] if np.ndim(v) else v for key, v in row.items()}
+                                                  for row in self.axes]
+            parts.append((part, at))
+        return parts
+
+    def _budgets(self, level: np.ndarray, swing: np.ndarray | None, least: np.ndarray | None):
         y = level
         up = np.full(len(y), np.inf)
         down = np.full(len(y), np.inf)
