@@ -267,7 +267,9 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tup
     m = len(k_iv)
     own = np.flatnonzero(np.r_[k_iv[1:] != k_iv[:-1], True])  # ends that are no start on the same interval
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:][own]])
-    parts = frame(curve, pts, np.concatenate([k_iv, k_iv, k_iv[own]]))
+    index = np.concatenate([k_iv, k_iv, k_iv[own]])
+    parts = [frame(curve, pts[i:i + _CHUNK], index[i:i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]  # in cache
+    parts = [np.concatenate(p, axis=0) for p in zip(*parts)]
     out = []
     for a in parts:
         whole = np.empty_like(a, shape=(3 * m, *a.shape[1:]))  # in a's layout: frame's are by axis
@@ -358,7 +360,7 @@ class _Budgets:
         parts = []
         for start in range(0, len(self.axes[0]["alpha"]), _CHUNK):
             at = slice(start, start + _CHUNK)
-            part = object.__new__(_Budgets)
+            part = object.__new__(type(self))
             part.window, part.axes = self.window, [{key: v[at] if np.ndim(v) else v for key, v in row.items()}
                                                   for row in self.axes]
             parts.append((part, at))
