@@ -268,10 +268,9 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tup
     own = np.flatnonzero(np.r_[k_iv[1:] != k_iv[:-1], True])  # ends that are no start on the same interval
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:][own]])
     index = np.concatenate([k_iv, k_iv, k_iv[own]])
-    parts = [frame(curve, pts[i:i + _CHUNK], index[i:i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]  # in cache
-    parts = [np.concatenate(p, axis=0) for p in zip(*parts)]
+    chunks = [frame(curve, pts[i:i + _CHUNK], index[i:i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]  # in cache
     out = []
-    for a in parts:
+    for a in (np.concatenate(p, axis=0) for p in zip(*chunks)):
         whole = np.empty_like(a, shape=(3 * m, *a.shape[1:]))  # in a's layout: frame's are by axis
         whole[:2 * m] = a[:2 * m]
         whole[2 * m:3 * m - 1] = a[1:m]
