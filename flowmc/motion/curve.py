@@ -23,7 +23,7 @@ import numpy as np
 __all__ = ["POLY", "ARC", "PlannedCurve", "CurveBuilder"]
 
 POLY, ARC = 0, 1
-_CHUNK = 16384  # points evaluated together
+_CHUNK = 16384  # points evaluated together, where there are more than four times as many
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +92,7 @@ class PlannedCurve:
         _CHUNK points at a time: the same arithmetic point by point, with every temporary in cache."""
         u = np.asarray(u, dtype=float).reshape(-1)
         k = self.interval_at(u) if index is None else np.asarray(index)
-        if len(u) <= _CHUNK:
+        if len(u) <= 4 * _CHUNK:
             return self._evaluate(u, k, order, lowest)
         parts = [self._evaluate(u[i:i + _CHUNK], k[i:i + _CHUNK], order, lowest) for i in range(0, len(u), _CHUNK)]
         return [np.concatenate(p, axis=0) for p in zip(*parts)]

@@ -80,7 +80,8 @@ _WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): th
 _SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over half the budget less than this
 _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
-_CHUNK = 16384  # intervals whose budgets are worked out together (see _Budgets._parts)
+_CHUNK = 16384  # intervals whose budgets are worked out together (see _Budgets._parts) ...
+_CHUNKED = 4 * _CHUNK  # ... when there are more than this (shorter arrays stay in cache whole)
 
 
 @dataclass(frozen=True, eq=False)
@@ -268,7 +269,8 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tup
     own = np.flatnonzero(np.r_[k_iv[1:] != k_iv[:-1], True])  # ends that are no start on the same interval
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:][own]])
     index = np.concatenate([k_iv, k_iv, k_iv[own]])
-    chunks = [frame(curve, pts[i:i + _CHUNK], index[i:i + _CHUNK]) for i in range(0, len(pts), _CHUNK)]  # in cache
+    step = _CHUNK if len(pts) > _CHUNKED else len(pts)  # in cache
+    chunks = [frame(curve, pts[i:i + step], index[i:i + step]) for i in range(0, len(pts), step)]
     out = []
     for a in (np.concatenate(p, axis=0) for p in zip(*chunks)):
         whole = np.empty_like(a, shape=(3 * m, *a.shape[1:]))  # in a's layout: frame's are by axis
@@ -341,9 +343,9 @@ class _Budgets:
         """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
         up to twice the budget within Tj), elsewhere for jumps of up to the budget. ``least`` (without a jerk
         limit only): the speed^2 is at least this on the interval, so a normal term that helps counts that
-        much (else it counts as at rest). Worked out _CHUNK intervals at a time (``_parts``)."""
+        much (else it counts as at rest). Worked out _CHUNK intervals at a time past _CHUNKED (``_parts``)."""
         n = len(level)
-        if n <= _CHUNK or not self.axes:
+        if n <= _CHUNKED or not self.axes:
             return self._budgets(level, swing, least)
         up, down = np.empty(n), np.empty(n)
         for part, at in self._parts:
