@@ -60,7 +60,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.path import Path
 from flowmc.motion.path_columns import CURVE, DWELL, LINE, PathColumns
 from flowmc.motion.pieces import REVERSAL, checked_feeds, corner_angle
-from flowmc.motion.ranges import moving_means, window_max
+from flowmc.motion.ranges import moving_means, range_medians, window_max
 
 __all__ = ["Smoothed", "smooth_path", "raw_curve"]
 
@@ -438,7 +438,10 @@ class _RunFitter:
 
     def _residual(self, coef: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """|B coef - q| at data points ``rows``, B the design matrix (summed over a row's four control points in
-        order)."""
+        order). Most of them are worked out at every point and picked from there (gathering a row's data costs
+        more than its arithmetic)."""
+        if len(self.pu) > len(rows) > 0.5 * len(self.pu):
+            return self._residual(coef, np.arange(len(self.pu)))[rows]
         every = len(rows) == len(self.pu)  # all of them: no copy
         b, cp, q = ((self.design_b, self.design_cp, self.q_rows) if every else
                     (self.design_b[:, rows], self.design_cp[:, rows], self.q_rows[:, rows]))
@@ -958,7 +961,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         widths = raw.u1 - raw.u0
         lo_i = np.searchsorted(raw.u1, runs.ua[fits], side="right")
         hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
-        typical = np.array([np.median(widths[a:max(b, a + 1)]) for a, b in zip(lo_i, hi_i)])
+        typical = range_medians(widths, lo_i, np.maximum(hi_i, lo_i + 1))
         h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
         pending = fits
         devs: list[float] = []

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import uniform_filter1d
 
-from flowmc.motion.ranges import Windows, moving_means, window_max, window_min
+from flowmc.motion.ranges import Windows, moving_means, range_medians, window_max, window_min
 
 
 def test_windows_match_a_scan_of_every_window():
@@ -43,3 +43,16 @@ def test_moving_means_are_uniform_filter1d_within_each_segment():
         moving_means(np.ones(10), [10], 40)
     with pytest.raises(ValueError, match="sum to 10"):
         moving_means(np.ones(10), [4, 5], 41)
+
+
+def test_range_medians_are_numpy_medians():
+    # odd and even counts, one-value ranges, overlapping ranges and ties: the very numbers np.median gives
+    rng = np.random.default_rng(11)
+    values = np.round(rng.normal(size=400), 2) * 10.0 ** rng.integers(-3, 3, 400)
+    lo = rng.integers(0, 399, 300)
+    hi = np.minimum(lo + 1 + rng.integers(0, 60, 300), 400)
+    lo[:2], hi[:2] = [0, 399], [400, 400]
+    out = range_medians(values, lo, hi)
+    np.testing.assert_array_equal(out, [np.median(values[a:b]) for a, b in zip(lo, hi)])
+    with pytest.raises(ValueError, match="needs a value"):
+        range_medians(values, [3], [3])
