@@ -25,8 +25,11 @@ Sencer, "Kinematic corner smoothing for high speed machine tools", Int. J. Machi
 (2016), and in the racing line of minimum-time vehicle manoeuvring (Kapania, Subosits and Gerdes, J. Dynamic
 Systems, Measurement and Control 138 (2016) 091005); per-axis rather than path limits as in Beudaert,
 Lavernhe and Tournier, "Feedrate interpolation with axis jerk constraints on 5-axis NURBS and G1 tool path",
-Int. J. Machine Tools and Manufacture 57 (2012). Fitted runs of micro-segments (flowmc.motion.smoothing) are
-not reshaped: on 3D_Chips that gained 0.26 s of 146.6 but its samples then reached 1.0004 amax.
+Int. J. Machine Tools and Manufacture 57 (2012). Fitted runs of short lines (flowmc.motion.smoothing) whose net
+turning is 1.5 pi or more are reshaped too, each stretch whole: held at both ends every _PART mm, a spiral's
+rounded squares (a quarter turn each, 75 mm at r = 48 mm) had no room. Their band both ways is the lines', so
+where the chords sag it is narrower (4 mm lines at r = 48 mm: about 0.03 mm either side of the curve through
+their middle).
 
 Only for acceleration-limited (trapezoid) plans: the joins are tangent-continuous, not curvature-continuous.
 """
@@ -118,10 +121,38 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
     load = kappa * np.max(np.abs(normal) * inv_a, axis=1)
     tangent = curve.evaluate(u, 1)[1]
     cap = np.minimum(seg_feed[curve.segment_at(u)], limits.along(tangent)[0])
-    bound = (np.sqrt(1.0 / np.maximum(load, 1e-300)) < _BOUND * cap) & (curve.kind[curve.interval_at(u)] == ARC)
-    # stretches: runs of bound samples on arcs, cut at stops, snapped to the curve's interval boundaries
-    edges = np.flatnonzero(np.diff(np.r_[0, bound.astype(int), 0]))
+    bound = np.sqrt(1.0 / np.maximum(load, 1e-300)) < _BOUND * cap
+    on_arc = curve.kind[curve.interval_at(u)] == ARC
     stops = np.unique(np.asarray(stop_u, dtype=float))
+
+    def arc_turn(ka: int, kb: int) -> float:
+        return float(np.sum(np.abs(curve.dphi[ka:kb + 1]) * (curve.u1[ka:kb + 1] - curve.u0[ka:kb + 1])))
+
+    # fitted runs by their net turning (the integral of kappa t x N): a wave of short lines turns both ways and
+    # has no rounded square to become
+    unit = tangent / np.maximum(np.linalg.norm(tangent, axis=1), 1e-300)[:, None]
+    bend = np.cross(unit, kappa[:, None] * normal)
+
+    def fitted_turn(ka: int, kb: int) -> float:
+        return float(np.linalg.norm(np.sum(bend[(u >= curve.u0[ka]) & (u < curve.u1[kb])], axis=0)) * (u[1] - u[0]))
+
+    # arcs in parts of about _PART mm; fitted runs whole (a spiral's rounded squares reach over a quarter turn)
+    pieces = sorted(_pieces(curve, u, bound & on_arc, stops, arc_turn, _PART)
+                    + _pieces(curve, u, bound & ~on_arc, stops, fitted_turn, math.inf))  # in order: _splice needs it
+    found = []
+    for ka, kb in pieces:
+        got = _reshape_stretch(curve, raw, ka, kb, inv_a, tol)
+        if got is not None:
+            found.append((ka, kb, got[0], (float(curve.u0[ka]), float(curve.u1[kb])), got[1]))
+    return found
+
+
+def _pieces(curve: PlannedCurve, u: np.ndarray, bound: np.ndarray, stops: np.ndarray,
+            turned: Callable[[int, int], float], part: float) -> list[tuple[int, int]]:
+    """Intervals (ka, kb) to reshape: runs of ``bound`` samples u, cut at stops, snapped to the curve's interval
+    boundaries, at least _MIN_LEN long and turning (``turned``) _MIN_TURN or more, in parts about ``part`` mm
+    long (each kept or not on its own), cut between intervals."""
+    edges = np.flatnonzero(np.diff(np.r_[0, bound.astype(int), 0]))
     pieces = []
     for a, b in zip(edges[::2], edges[1::2]):
         ua, ub = u[a], u[b - 1]
@@ -130,20 +161,13 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
             ka, kb = (int(k) for k in curve.interval_at(np.array([lo, hi])))
             ka += int(curve.u0[ka] < lo - _SCAN)  # intervals that reach well past the bound samples stay
             kb -= int(curve.u1[kb] > hi + _SCAN)
-            turned = float(np.sum(np.abs(curve.dphi[ka:kb + 1]) * (curve.u1[ka:kb + 1] - curve.u0[ka:kb + 1])))
-            if kb < ka or curve.u1[kb] - curve.u0[ka] < _MIN_LEN or turned < _MIN_TURN:
+            if kb < ka or curve.u1[kb] - curve.u0[ka] < _MIN_LEN or turned(ka, kb) < _MIN_TURN:
                 continue
-            # long stretches in parts of about _PART mm (each kept or not on its own), cut between intervals
-            parts = max(1, int(round((curve.u1[kb] - curve.u0[ka]) / _PART)))
+            parts = max(1, int(round((curve.u1[kb] - curve.u0[ka]) / part)))
             cut = np.searchsorted(curve.u0[ka:kb + 1], np.linspace(curve.u0[ka], curve.u1[kb], parts + 1)[1:-1]) + ka
             bounds = np.unique(np.r_[ka, cut, kb + 1])
             pieces += [(int(x), int(y) - 1) for x, y in zip(bounds[:-1], bounds[1:])]
-    found = []
-    for ka, kb in pieces:
-        got = _reshape_stretch(curve, raw, ka, kb, inv_a, tol)
-        if got is not None:
-            found.append((ka, kb, got[0], (float(curve.u0[ka]), float(curve.u1[kb])), got[1]))
-    return found
+    return pieces
 
 
 def _curvature(curve: PlannedCurve, u: np.ndarray, within=None) -> tuple[np.ndarray, np.ndarray]:

@@ -90,6 +90,8 @@ _STENCILS = {2: np.array([1.0, -2.0, 1.0]), 3: np.array([1.0, -3.0, 3.0, -1.0])}
 _ELL = 100.0  # longest smoothing length in knot spans
 _ELL_SEGMENTS = 1.5  # initial smoothing length in programmed segment lengths
 _ELL_SEGMENTS_JERK = 2.2  # ... for jerk-limited fits: chord ripple in the curvature's slope costs speed as v^3
+_STEADY = 0.5  # a trapezoid run whose net turning is at least this share of its total turning is fitted with the
+# third-difference penalty (its curvature is steady: bending is not what there is to smooth away; see _steady)
 _ELL_TOL = 20.0  # and at least this many tolerances: details below the tolerance are smoothed away
 _BLUR = 41  # control points over which the smoothing's local scale is evened out
 _REACH = 2.0  # smoothing lengths either side of a stray point over which smoothing is reduced
@@ -322,9 +324,10 @@ class _RunFitter:
     the tolerance of it at that t.
     """
 
-    def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2):
+    def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2,
+                 ell_segments: float = _ELL_SEGMENTS):
         self.raw, self.ua, self.ub, self.tol, self.h = raw, ua, ub, tol, np.broadcast_to(h, ua.shape)
-        self.order, self.stencil = order, _STENCILS[order]
+        self.order, self.stencil, self.ell_segments = order, _STENCILS[order], ell_segments
         self.free_a, self.free_b = free_a, free_b
         n_runs = len(ua)
         length = ub - ua
@@ -405,8 +408,7 @@ class _RunFitter:
         per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
         per_cp = moving_means(per_cp, ncp, 41)
         hd = hr[self.diff_run]
-        segments = _ELL_SEGMENTS_JERK if self.order == 3 else _ELL_SEGMENTS
-        ell = np.clip(np.maximum(segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
+        ell = np.clip(np.maximum(self.ell_segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
         self.mu = ell**(2 * self.order) / (0.25 * hd * hd**(2 * self.order - 1))
         self.floor = (hd / ell) ** (2 * self.order)
         reach = np.ceil(_REACH * ell / hd).astype(int)
@@ -577,7 +579,7 @@ class _RunFitter:
         """A fitter for runs ``keep`` (a mask) alone, with their data's parameters ``t``, their widths and
         their smoothing so far: the same data, so it goes on fitting them as this one would."""
         sub = _RunFitter(self.raw, self.ua[keep], self.ub[keep], self.free_a[keep], self.free_b[keep], self.tol,
-                         self.h[keep], self.order)
+                         self.h[keep], self.order, self.ell_segments)
         sub.scale = self.scale[keep[self.diff_run]]
         return sub, t[keep[self.run_of]], width[keep]
 
@@ -963,16 +965,25 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
         typical = range_medians(widths, lo_i, np.maximum(hi_i, lo_i + 1))
         h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
+        # the penalty: third differences for jerk-limited plans and for steadily turning runs, else second
+        steady = g2 | _steady(el, runs.first[fits], runs.last[fits])
         pending = fits
         devs: list[float] = []
         for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
-            fit = _RunFitter(raw, runs.ua[pending], runs.ub[pending], runs.free_a[pending], runs.free_b[pending],
-                             tol_fit, h[np.searchsorted(fits, pending)], order=3 if g2 else 2).fit()
-            done = np.flatnonzero(fit.ok)
-            for x, pu, coef in _runs_polys(fit, done) if len(done) else []:
-                fit_parts.append((pu, coef, np.diff(x)))
-            devs.extend(fit.deviation[done].tolist())
-            pending = pending[~fit.ok]
+            missed = []
+            for third in (False, True):
+                these = pending[steady[np.searchsorted(fits, pending)] == third]
+                if not len(these):
+                    continue
+                fit = _RunFitter(raw, runs.ua[these], runs.ub[these], runs.free_a[these], runs.free_b[these], tol_fit,
+                                 h[np.searchsorted(fits, these)], order=3 if third else 2,
+                                 ell_segments=_ELL_SEGMENTS_JERK if g2 else _ELL_SEGMENTS).fit()
+                done = np.flatnonzero(fit.ok)
+                for x, pu, coef in _runs_polys(fit, done) if len(done) else []:
+                    fit_parts.append((pu, coef, np.diff(x)))
+                devs.extend(fit.deviation[done].tolist())
+                missed.append(these[~fit.ok])
+            pending = np.sort(np.concatenate(missed))
             h *= 0.5
             if not len(pending):
                 break
@@ -1011,6 +1022,29 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
 
     # jerk-limited: the same smoothing with the lone corners stopped at, for the planner to weigh
     return assemble(True, assemble(False) if g2 and len(blends) else None)
+
+
+def _steady(el: _Elements, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Per run (junctions first .. last): whether its net turning is at least _STEADY of its total turning, each
+    junction's and each inner element's turning taken as t_a x t_b of its unit tangents (a spiral or an arc of
+    short lines: 1; a raster's waves or a Koch curve's zigzags: 0.2-0.4).
+
+    Why: the second-difference penalty (the integral of |p''|^2) pulls against curvature itself, so on a run
+    that keeps turning one way it straightens the curve wherever its smoothing is cut (at a run's end held
+    straight, where the tolerance is missed), about kappa l^2 off for a smoothing length l, and the cuts
+    spread along the run: left with the smoothing of a knot span there, the fit follows the chords and its
+    curvature swings with them (a spiral of 4 mm lines, r = 48 mm: kappa r 0.85-1.4). The third-difference
+    penalty (the integral of |p'''|^2) does not pull against steady curvature; on waves and zigzags, bending
+    is what there is to smooth away, and the second-difference penalty does that better."""
+    turn_j = np.cross(el.t1[:-1], el.t0[1:])  # junction j: between elements j and j + 1
+    turn_e = np.cross(el.t0, el.t1)
+    at_j = np.r_[[np.zeros(3)], np.cumsum(turn_j, axis=0)]
+    at_e = np.r_[[np.zeros(3)], np.cumsum(turn_e, axis=0)]
+    size_j = np.r_[0.0, np.cumsum(np.linalg.norm(turn_j, axis=1))]
+    size_e = np.r_[0.0, np.cumsum(np.linalg.norm(turn_e, axis=1))]
+    net = (at_j[last + 1] - at_j[first]) + (at_e[last + 1] - at_e[first + 1])
+    total = (size_j[last + 1] - size_j[first]) + (size_e[last + 1] - size_e[first + 1])
+    return np.linalg.norm(net, axis=1) >= _STEADY * total
 
 
 def _unsmoothable(alpha, period, a_min, v_big) -> np.ndarray:

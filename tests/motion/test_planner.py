@@ -140,6 +140,26 @@ def test_a_run_of_short_chords_is_planned_like_the_curve_it_describes():
     assert to_path <= TOL and from_path <= TOL
 
 
+def test_an_arc_of_short_lines_between_lines_is_planned_as_fast_as_the_arc():
+    # mixed's quarter circle: 60 lines of 1.3 mm (r = 50 mm) between two lines tangent to it. The run's ends
+    # are held straight; with the second-difference penalty the fit straightened the curve there, cut its
+    # smoothing to keep the tolerance, and the cuts spread along the run: the curvature swung with the
+    # chords and the plan took 1.049 times the arc's. Fitted with the third-difference penalty (the run
+    # turns one way), it takes no longer than the arc.
+    t = np.linspace(0.0, 0.5 * math.pi, 61)
+    chords = Path.polyline(np.r_[[[150.0, 0.0]], np.c_[100 + 50 * np.cos(t), 100 + 50 * np.sin(t)], [[20.0, 150.0]]],
+                           feed=200.0)
+    arc = Path([Line((150, 0, 0), (150, 100, 0), feed=200.0), Arc((150, 100, 0), (100, 150, 0), (100, 100, 0), feed=200.0),
+                Line((100, 150, 0), (20, 150, 0), feed=200.0)])
+    m = machine(period=0.001)
+    fitted = plan_smooth(chords, m)
+    assert fitted.smoothed.fitted == 1 and fitted.smoothed.failed == 0
+    assert fitted.cycle_time <= 1.005 * plan_smooth(arc, m).cycle_time
+    within_limits(fitted.trajectory, None)
+    to_path, from_path = deviation_both_ways(fitted.trajectory, chords)
+    assert to_path <= TOL and from_path <= TOL
+
+
 def test_detail_below_the_tolerance_is_smoothed_away_within_it():
     # a line with a 0.02 mm zigzag every 0.1 mm: no corner of it needs to be followed
     x = np.arange(0.0, 60.0001, 0.1)

@@ -46,6 +46,31 @@ def test_a_circle_is_passed_as_a_rounded_square_within_the_band_and_faster():
     assert p.smoothed.deviation <= TOL
 
 
+def test_a_spiral_of_short_lines_is_passed_as_rounded_squares_within_the_band_and_faster():
+    # three turns of 1 mm lines from r = 20 to 12 mm, fitted as one run and then reshaped as a whole (not in
+    # parts held at both ends): inside at the axes and outside at the diagonals on its middle turn, within
+    # the tolerance of the lines both ways; 5.476 s fitted only, under 5.45 s reshaped
+    t = np.linspace(0.0, 6.0 * math.pi, 361)
+    r = 20.0 - 8.0 * t / (6.0 * math.pi)
+    path = Path.polyline(np.c_[r * np.cos(t), r * np.sin(t)], feed=200.0)
+    p = plan_smooth(path, machine())
+    assert p.smoothed.fitted == 1 and p.cycle_time < 5.45
+    xy = p.trajectory.positions[:, :2]
+    turned = np.unwrap(np.arctan2(xy[:, 1], xy[:, 0]))
+    off = np.linalg.norm(xy, axis=1) - (20.0 - 8.0 * turned / (6.0 * math.pi))
+    angle = np.degrees(turned)
+    middle = (turned > 2.0 * math.pi) & (turned < 4.0 * math.pi)
+    for at in range(0, 360, 45):
+        near = middle & (np.abs((angle - at + 180.0) % 360.0 - 180.0) < 2.0)
+        assert (1 if at % 90 else -1) * off[near].mean() > 0.6 * TOL
+    limits = np.full(3, 200.0)
+    assert peak_ratio(p.trajectory, limits, order=1) <= 1.0 + 1e-9
+    assert peak_ratio(p.trajectory, limits, order=2) <= 1.0 + 1e-6
+    programmed = programmed_polyline(path)
+    assert contour_error(p.trajectory.positions, programmed) <= TOL
+    assert coverage_error(p.trajectory.positions, programmed) <= TOL
+
+
 def test_jerk_limited_plans_keep_the_programmed_arc():
     # the reshaped curve joins its neighbours tangent-continuously only, so S-curve plans keep the arc
     p = plan_smooth(full_circle(), machine(), profile="scurve")
