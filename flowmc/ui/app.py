@@ -233,13 +233,15 @@ class Editor:
                 return
             if kind in ("graph", "document"):
                 self.canvas.status.clear()
+            if kind == "document":  # framed before it is drawn: zoomed out to fit, its port names are never made
+                self.canvas.geometry()
+                self.canvas.fit()
             self.canvas.sync()
             self.minimap.refresh()
             if kind == "move":
                 self._refresh_title()
                 return
             if kind == "document":
-                self.canvas.fit()
                 self.files.refresh()
                 self.palette.refresh()
             self.settle()

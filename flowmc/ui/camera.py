@@ -95,8 +95,9 @@ def setup(client: viser.ClientHandle, frame_again: Callable[[], None]) -> None:
 
 
 def frame(client: viser.ClientHandle, box: tuple[float, float, float, float], margin: float = 0.4,
-          legible: float = 0.0) -> None:
-    """Look straight down on the world rectangle ``box`` (xmin, ymin, xmax, ymax), all of it in view.
+          legible: float = 0.0) -> float:
+    """Look straight down on the world rectangle ``box`` (xmin, ymin, xmax, ymax), all of it in view; returns
+    the screen pixels per world unit of the new view (the page reports the camera back later).
 
     ``legible``: screen pixels per world unit below which text is hard to read. When showing all of ``box``
     would go below it, but a view at ``legible`` still shows at least 1/``LEGIBLE_STRETCH`` of the box
@@ -122,6 +123,7 @@ def frame(client: viser.ClientHandle, box: tuple[float, float, float, float], ma
     with client.atomic():
         cam.position = (cx, cy, dist)
         cam.look_at = (cx, cy, 0.0)
+    return height_px / (2 * dist * math.tan(FOV / 2))
 
 
 def screen_rect_to_world(cam: viser.CameraHandle, screen_min: tuple[float, float],

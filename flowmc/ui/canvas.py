@@ -12,6 +12,7 @@ the nodes inside it along), a port draws a wire (``canvas_wiring``).
 
 from __future__ import annotations
 
+import functools
 import threading
 from typing import Any, Callable
 
@@ -38,6 +39,12 @@ WIRE_MIN_PX, WIRE_MAX_PX = 1.5, 8.0  # readable zoomed out, not a ribbon zoomed 
 LABEL_FONT = 15.0  # free labels and comment titles, canvas px
 COMMENT_FONT = 14.0
 MIN_TITLE_PX = 8.0  # node titles on screen at Fit, at least, when the graph is not much bigger than the view
+
+
+@functools.lru_cache(maxsize=512)
+def _rows_field(params: Any) -> Any:
+    """A node type's first table param (its JSON schema is built once per type, not per node and redraw)."""
+    return next((spec for spec in form_fields(params.model_json_schema()) if spec.kind == "rows"), None)
 
 
 class Canvas:
@@ -152,15 +159,19 @@ class Canvas:
         return True
 
     def fit(self, clients: list[viser.ClientHandle] | None = None) -> None:
-        """Frame every node and note (the middle of the sheet when there are none) in each client's view."""
+        """Frame every node and note (the middle of the sheet when there are none) in each client's view.
+        A fit of every view (``clients`` None) sets the details (port names, previews) for the first one's new
+        zoom at once: fitting before drawing a graph just opened, the editor makes only the labels it will show."""
         box = layout.bounds([*self.boxes, *self.notes]) or (-2.0, -2.0, 6.0, 2.0)
+        zooms = []
         if clients is None:
-            per_px = camera.initial(self.server, box)
-            if not self.server.get_clients():  # details (port names, previews) only if the first view can read them
-                self.texts.zoom(per_px * layout.SCALE)
-                self._wire_zoom(per_px * layout.SCALE)
+            zooms.append(camera.initial(self.server, box))
         for client in clients if clients is not None else list(self.server.get_clients().values()):
-            camera.frame(client, box, legible=MIN_TITLE_PX / (layout.TITLE_FONT * layout.SCALE))
+            zooms.append(camera.frame(client, box, legible=MIN_TITLE_PX / (layout.TITLE_FONT * layout.SCALE)))
+        if clients is None:  # the first page's view, else the one a page connecting next starts with
+            per_px = zooms[1] if len(zooms) > 1 else zooms[0]
+            self.texts.zoom(per_px * layout.SCALE)
+            self._wire_zoom(per_px * layout.SCALE)
 
     def view_centre(self) -> tuple[float, float]:
         """Canvas pixels at the middle of the first client's view (where palette nodes appear)."""
@@ -188,11 +199,8 @@ class Canvas:
             cls = self.state.runtime.registry.lookup(node.type, self.state.base_dir)
         except GraphError:
             return []
-        for spec in form_fields(cls.Params.model_json_schema()):
-            if spec.kind == "rows":
-                value = node.params.get(spec.name, spec.default)
-                return draw.rows_preview(spec.name, value, spec.tag)
-        return []
+        spec = _rows_field(cls.Params)
+        return draw.rows_preview(spec.name, node.params.get(spec.name, spec.default), spec.tag) if spec else []
 
     def geometry(self) -> None:
         """Boxes, notes, wire curves and problems from the state (no drawing)."""

@@ -9,6 +9,9 @@ that the browser fetches and compiles while it parses the page, and the zstd dec
 ``.wasm`` file (the client also decodes the server's messages with it, and finds it on
 ``globalThis.__viserZstdWasm``, where viser's own loader puts it).
 
+The script and decoder are served for the browser to keep (``CACHE``, an ETag, a 304 to a matching
+``If-None-Match``); the page is not (it carries the launch's token).
+
 One start-up default is changed on the way: the client starts with viser's default lights and its
 built-in HDRI environment map until the server's first messages say otherwise, and under software
 WebGL loading and prefiltering that map (then recompiling every material without it) took seconds.
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import functools
 import gzip
+import hashlib
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,9 +36,13 @@ import numpy as np
 import viser
 import zstandard
 
-__all__ = ["ClientFiles", "files", "page", "asset", "PREFIX"]
+__all__ = ["ClientFiles", "files", "page", "asset", "PREFIX", "CACHE"]
 
 PREFIX = "/flowmc-client/"
+# The script and decoder never change under their address (it names their hash): a browser opening the editor
+# again (a reload, a second tab) takes them from its cache, and Chromium then reuses the script's compiled code
+# (V8's code cache) instead of compiling 2.5 MB again. The page itself is never cached (it holds the token).
+CACHE = "private, max-age=31536000, immutable"
 _INDEX = Path(viser.__file__).parent / "client" / "build" / "index.html"
 _ALPHABET = "".join(chr(c) for c in range(0x21, 0x7F) if chr(c) not in "\"&<>'`")  # viser's base-88 digits
 _PAYLOAD = re.compile(r'<script data-p="([^"]*)" data-ss="(\d+)" data-cs="(\d+)">(.*?)</script>', re.S)
@@ -50,6 +58,7 @@ class Asset(NamedTuple):
     content_type: str
     body: bytes
     gzipped: bytes | None  # the body gzip-compressed, for browsers that accept it (None: not worth it)
+    digest: str = ""  # the body's hash, in its address and its ETag ("" for the page, which is never cached)
 
 
 @dataclass(frozen=True)
@@ -78,7 +87,8 @@ def _base88(text: str) -> bytes:
 
 
 def _asset(content_type: str, body: bytes) -> Asset:
-    return Asset(content_type, body, gzip.compress(body, 1) if len(body) > 4096 else None)
+    return Asset(content_type, body, gzip.compress(body, 1) if len(body) > 4096 else None,
+                 hashlib.blake2b(body, digest_size=12).hexdigest())
 
 
 @functools.cache
@@ -109,12 +119,12 @@ def files() -> ClientFiles | None:
 
 def page(token: str) -> str | None:
     """The client's page: the script and decoder are fetched with ``token`` (a cross-site frame, like the
-    3D view, sends no cookie). None when the client could not be unpacked."""
+    3D view, sends no cookie) under addresses naming their content's hash, so a browser may keep them
+    (``CACHE``). None when the client could not be unpacked."""
     client = files()
     if client is None:
         return None
-    query = f"?v={viser.__version__}&token={token}"
-    app, wasm = f"{PREFIX}app.js{query}", f"{PREFIX}zstd.wasm{query}"
+    app, wasm = (f"{PREFIX}{name}?v={client.assets[name].digest}&token={token}" for name in ("app.js", "zstd.wasm"))
     return (f'{client.head}\n<style>{client.css}</style>\n<link rel="modulepreload" href="{app}" />\n'
             f'<script type="module">globalThis.__viserZstdWasm = await WebAssembly.compileStreaming(fetch("{wasm}"));\n'
             f'await import("{app}");</script>\n</head>\n<body>\n<noscript>You need to enable JavaScript to run this app.'

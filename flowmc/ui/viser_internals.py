@@ -386,6 +386,13 @@ class _Namespace:
         return getattr(self._real, name)
 
 
+def _set_header(headers: Headers, key: str, value: str) -> None:
+    """One value for ``key`` (assigning to websockets' ``Headers`` adds a value beside those it holds)."""
+    if key in headers:
+        del headers[key]
+    headers[key] = value
+
+
 def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None) -> Callable[..., Any]:
     def process_request(connection: Any, request: Any) -> Any:
         port = connection.local_address[1]
@@ -398,14 +405,16 @@ def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None) -> 
         if not verdict.ok:
             response = connection.respond(verdict.status, REFUSED_PAGE.format(reason=verdict.reason))
             for key, value in _SECURITY_HEADERS.items():
-                response.headers[key] = value
+                _set_header(response.headers, key, value)
             return response
         response = _client_response(guard, request)
         if response is None:
             response = inner(connection, request) if inner is not None else None
         if response is not None:  # a page or file (a websocket handshake returns None and goes on)
+            kept = response.headers.get("Cache-Control") == viser_client.CACHE  # viser_client's script and decoder
             for key, value in _SECURITY_HEADERS.items():
-                response.headers[key] = value
+                if not (kept and key == "Cache-Control"):
+                    _set_header(response.headers, key, value)
             if verdict.set_cookie:
                 response.headers["Set-Cookie"] = guard.set_cookie(port)
         return response
@@ -425,7 +434,12 @@ def _client_response(guard: Guard, request: Any) -> Response | None:
         return None
     zipped = asset.gzipped if "gzip" in request.headers.get("Accept-Encoding", "") else None
     body = zipped if zipped is not None else asset.body
-    headers = Headers({"Content-Type": asset.content_type, "Content-Length": str(len(body))})
+    headers = Headers({"Content-Type": asset.content_type, "Vary": "Accept-Encoding"})
+    if asset.digest:
+        headers["ETag"], headers["Cache-Control"] = f'W/"{asset.digest}"', viser_client.CACHE  # weak: gzip or not
+        if f'"{asset.digest}"' in request.headers.get("If-None-Match", ""):
+            return Response(304, "Not Modified", headers, b"")
+    headers["Content-Length"] = str(len(body))
     if zipped is not None:
         headers["Content-Encoding"] = "gzip"
     return Response(200, "OK", headers, body)

@@ -12,7 +12,7 @@ import time
 from typing import Any, Iterator
 
 import numpy as np
-from playwright.sync_api import Browser, Page, sync_playwright
+from playwright.sync_api import Browser, BrowserContext, Page, sync_playwright
 
 from flowmc.ui import camera, canvas_draw
 
@@ -66,9 +66,11 @@ _STILL = """() => new Promise(resolve => {
 class EditorPage:
     """One browser tab on an Editor running in this process."""
 
-    def __init__(self, browser: Browser, editor: Any):
+    def __init__(self, browser: Browser | BrowserContext, editor: Any):
+        """A new tab: in a fresh context of its own (``browser``), or beside others in ``BrowserContext``, whose
+        cache it shares (made with ``viewport=VIEWPORT``)."""
         self.editor = editor
-        self.page: Page = browser.new_page(viewport=VIEWPORT)
+        self.page: Page = browser.new_page(viewport=VIEWPORT) if isinstance(browser, Browser) else browser.new_page()
 
     def open(self, timeout: float = 30.0, query: str = "") -> float:
         """Load the page (``query``: more URL parameters, e.g. viser's ``fixedDpr=0.75``); returns seconds

@@ -404,3 +404,17 @@ def test_a_page_opening_120_nodes_gets_each_title_once_and_no_hidden_labels(tmp_
     names = {m["name"] for m in again if m["type"] == "LabelMessage"}
     assert "/canvas/detail/t12.in.dx" in names and "/canvas/titles/t12.title" in names
     assert not [m for m in again if m["type"] == "FrameMessage" and m["name"].startswith("/canvas/detail/")]
+
+
+def test_a_graph_opened_in_the_editor_is_framed_before_its_port_names_are_made(tmp_path, open_editor):
+    """Opening a 120-node graph from a page showing a small one (port names shown): the editor fits the new
+    graph before drawing it, so the page gets its titles and none of the 576 port-name labels it cannot read."""
+    chain_file(tmp_path, 120)
+    ed = open_editor(example_file(tmp_path), folder=tmp_path, extensions=False)
+    seen_detail = []
+    messages = messages_on_connect(ed, then=lambda: (seen_detail.append(ed.canvas.texts.detail),
+                                                      ed.files.open("big.flowmc.json")))
+    assert seen_detail == [True]  # the small graph's port names were shown
+    labels = [m["name"] for m in messages if m["type"] == "LabelMessage"]
+    assert sorted(labels) == sorted(f"/canvas/titles/{b.node_id}.title" for b in ed.canvas.boxes)
+    assert len(ed.canvas.boxes) == 120 and not ed.canvas.texts.detail

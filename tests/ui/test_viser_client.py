@@ -15,13 +15,18 @@ from editor_graphs import example_file
 from flowmc.ui import viser_client
 
 
+def _joined(message):
+    """Each header once, a repeated one's values joined (as a browser reads them)."""
+    return {key: ", ".join(message.get_all(key)) for key in set(message.keys())}
+
+
 def _get(url, headers=None):
     request = urllib.request.Request(url, headers=headers or {})
     try:
         with urllib.request.urlopen(request, timeout=20) as response:
-            return response.status, dict(response.headers), response.read()
+            return response.status, _joined(response.headers), response.read()
     except urllib.error.HTTPError as err:
-        return err.code, dict(err.headers), err.read()
+        return err.code, _joined(err.headers), err.read()
 
 
 @pytest.fixture
@@ -44,12 +49,17 @@ def test_the_page_and_its_files_are_served_behind_the_guard(editor):
     port, token = editor.server.get_port(), editor.guard.token
     status, headers, body = _get(editor.url)
     page = body.decode()
+    assert headers["Cache-Control"] == "no-store"  # the page carries the token: never kept
     assert status == 200 and headers["Content-Type"].startswith("text/html")
     assert "data-p=" not in page and f'{viser_client.PREFIX}app.js?v=' in page and f"token={token}" in page
     base = f"http://127.0.0.1:{port}{viser_client.PREFIX}"
     status, headers, body = _get(f"{base}app.js?token={token}", {"Accept-Encoding": "gzip"})
-    assert status == 200 and headers["Content-Encoding"] == "gzip" and headers["Cache-Control"] == "no-store"
+    assert status == 200 and headers["Content-Encoding"] == "gzip" and headers["Cache-Control"] == viser_client.CACHE
     assert gzip.decompress(body) == viser_client.files().assets["app.js"].body
+    digest = viser_client.files().assets["app.js"].digest
+    assert f"app.js?v={digest}&" in page and headers["ETag"] == f'W/"{digest}"'
+    status, headers, body = _get(f"{base}app.js?token={token}", {"If-None-Match": f'W/"{digest}"'})
+    assert status == 304 and body == b"" and headers["Cache-Control"] == viser_client.CACHE
     status, headers, body = _get(f"{base}zstd.wasm?token={token}")
     assert status == 200 and headers["Content-Type"] == "application/wasm" and body[:4] == b"\0asm"
     assert _get(f"{base}app.js")[0] == 403  # no token, no cookie
@@ -73,3 +83,26 @@ def test_a_browser_runs_the_served_client_without_the_default_environment(editor
         assert lights == 0
         assert errors == []
         ui.page.close()
+
+
+@pytest.mark.browser
+def test_a_second_open_in_the_same_browser_takes_the_client_from_its_cache(editor, browser):
+    context = browser.new_context()
+    try:
+        sources = []
+        for _ in range(2):
+            page = context.new_page()
+            cdp = context.new_cdp_session(page)
+            cdp.send("Network.enable")
+            seen: dict[str, bool] = {}
+            cdp.on("Network.responseReceived", lambda e, seen=seen: seen.update(
+                {e["response"]["url"].partition("?")[0].rpartition("/")[2]: bool(e["response"].get("fromDiskCache"))}))
+            page.goto(editor.url)
+            page.wait_for_function("window.__flowmcCameraLocked === true", timeout=60000)
+            sources.append(seen)
+            page.close()
+        assert sources[0]["app.js"] is False and sources[0]["zstd.wasm"] is False
+        assert sources[1]["app.js"] is True and sources[1]["zstd.wasm"] is True  # the page itself is fetched again
+        assert sources[1][""] is False
+    finally:
+        context.close()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import struct
 import time
-from typing import Any
+from typing import Any, Callable
 
 import msgspec
 import viser
@@ -27,20 +27,30 @@ def _decode(frame: bytes) -> list[dict[str, Any]]:
     return msgspec.msgpack.decode(body)["messages"]
 
 
-def messages_on_connect(editor: Any, quiet_s: float = 1.0, timeout_s: float = 30.0) -> list[dict[str, Any]]:
-    """Every message the editor sends a page that just connected, until it has been quiet for ``quiet_s``."""
-    port = editor.server.get_port()
-    headers = {"Origin": f"http://127.0.0.1:{port}", "Cookie": f"{Guard.cookie_name(port)}={editor.guard.token}"}
+def _drain(ws: Any, quiet_s: float, timeout_s: float) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
     end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        try:
+            frame = ws.recv(timeout=quiet_s)
+        except TimeoutError:
+            break
+        if isinstance(frame, bytes):
+            out += _decode(frame)
+    return out
+
+
+def messages_on_connect(editor: Any, quiet_s: float = 1.0, timeout_s: float = 30.0,
+                        then: Callable[[], object] | None = None) -> list[dict[str, Any]]:
+    """Every message the editor sends a page that just connected, until it has been quiet for ``quiet_s``;
+    with ``then``: the messages sent after that, while and after ``then()`` runs, instead."""
+    port = editor.server.get_port()
+    headers = {"Origin": f"http://127.0.0.1:{port}", "Cookie": f"{Guard.cookie_name(port)}={editor.guard.token}"}
     with connect(f"ws://127.0.0.1:{port}/", subprotocols=[f"viser-v{viser.__version__}"], additional_headers=headers,
                  open_timeout=10, max_size=None) as ws:
         ws.send(msgspec.msgpack.encode(_CAMERA))
-        while time.monotonic() < end:
-            try:
-                frame = ws.recv(timeout=quiet_s)
-            except TimeoutError:
-                break
-            if isinstance(frame, bytes):
-                out += _decode(frame)
+        out = _drain(ws, quiet_s, timeout_s)
+        if then is not None:
+            then()
+            out = _drain(ws, quiet_s, timeout_s)
     return out
