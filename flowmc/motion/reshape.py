@@ -46,7 +46,7 @@ from flowmc.motion.curve import ARC, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.path import Path
 from flowmc.motion.ranges import window_max
-from flowmc.motion.smoothing import _TOL_SHARE, Smoothed, raw_curve
+from flowmc.motion.smoothing import Smoothed, fit_tolerance, raw_curve
 from flowmc.motion.timelaw import TimeLaw
 
 if TYPE_CHECKING:
@@ -79,7 +79,7 @@ def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: flo
     """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``law_of``) passes faster than
     before, if the whole is faster too; ``sm`` itself otherwise."""
     raw, _ = raw_curve(path)
-    tol_fit = _TOL_SHARE * (tolerance - float(np.max(limits.amax[list(limits.cols)])) * limits.period**2 / 8.0)
+    tol_fit = fit_tolerance(limits, tolerance)
     found = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
     if not found:
         return sm

@@ -62,7 +62,7 @@ from flowmc.motion.path_columns import CURVE, DWELL, LINE, PathColumns
 from flowmc.motion.pieces import REVERSAL, checked_feeds, corner_angle
 from flowmc.motion.ranges import moving_means, range_medians, window_max
 
-__all__ = ["Smoothed", "smooth_path", "raw_curve"]
+__all__ = ["Smoothed", "fit_tolerance", "smooth_path", "raw_curve"]
 
 _EPS_LEN = 1e-9  # mm: shorter segments are dropped
 _CURVE_STEP = 1.0  # mm: tabulated curves (ellipse, NURBS) become cubic splines with knots this far apart at most
@@ -863,6 +863,17 @@ def _copy_outside(raw: PlannedCurve, b: CurveBuilder, cut_a: np.ndarray, cut_b: 
                raw.w[kk], raw.radius[kk], raw.phi0[kk] + raw.dphi[kk] * d, raw.dphi[kk], raw.rise[kk])
 
 
+def fit_tolerance(limits: PathLimits, tolerance: float) -> float:
+    """The share of ``tolerance`` (mm) a fitted or reshaped curve may use: the sampled chords' sagitta at the
+    largest acceleration comes on top of the curve's own deviation. Raises PlanningError if nothing is left."""
+    a_big = float(np.max(limits.amax[list(limits.cols)]))
+    left = tolerance - a_big * limits.period**2 / 8.0
+    if left <= 0:
+        raise PlanningError(f"tolerance {tolerance} mm is below the sampled chords' sagitta at this period",
+                            where="planner")
+    return _TOL_SHARE * left
+
+
 def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity: int = 1) -> Smoothed:
     """Smooth ``path`` within ``tolerance`` (mm): tangent-continuous joins (``continuity=1``, enough for
     acceleration-limited profiles) or curvature-continuous ones (``continuity=2``, for jerk limits; lone
@@ -876,13 +887,8 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
     raw, el = raw_curve(path)
     g2 = continuity >= 2
     period = limits.period
-    a_big = float(np.max(limits.amax[list(limits.cols)]))
     v_big = float(np.max(limits.vmax[list(limits.cols)]))
-    tol_fit = tolerance - a_big * period**2 / 8.0  # the sampled chords' sagitta comes on top
-    if tol_fit <= 0:
-        raise PlanningError(f"tolerance {tolerance} mm is below the sampled chords' sagitta at this period",
-                            where="planner")
-    tol_fit *= _TOL_SHARE
+    tol_fit = fit_tolerance(limits, tolerance)
 
     # junctions between consecutive elements
     nj = len(el.seg) - 1
