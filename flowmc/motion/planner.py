@@ -83,7 +83,7 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
         if jerk:
             law, u, dwell_seg, pos = _retimed(path, machine, lim, sm, law, u, dwell_seg, pos)
     else:
-        sm, (law, u, dwell_seg, pos) = _blended_or_stopped(path, machine, lim, sm, jerk)
+        sm, (law, u, dwell_seg, pos) = _blended_or_stopped(path, machine, lim, sm, sm.stopped, jerk)
     tags = np.where(dwell_seg >= 0, dwell_seg, sm.curve.segment_at(u))
     tags = np.maximum.accumulate(tags)
     cols = list(lim.cols)
@@ -93,15 +93,14 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     return SmoothPlan(traj, u, sm, law)
 
 
-def _blended_or_stopped(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bool):
-    """The smoothing (``sm`` or ``sm.stopped``) and its timed, retimed samples that pass ``sm``'s lone corners
+def _blended_or_stopped(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, stopped: Smoothed, jerk: bool):
+    """The smoothing (``sm`` or ``stopped``, ``sm.stopped``) and its timed, retimed samples that pass ``sm``'s lone corners
     soonest: on jerk-limited blends, or stopped at. The time law alone passes a blend at its slowest all through
     it; the retiming (linear programs, costly) lets the speed dip at its middle only; stopping wins at sharp
     turns (star10's 144 degrees). Blends are weighed only where the stops at them (a rest of Tj each, and more)
     are _BLEND_SHARE of the stopped plan or more; the blended plan is retimed where its time law takes at most
     _BLEND_SLACK longer than the stopped one's, and kept if it then beats that law; else the stopped plan is
     retimed too and the faster kept."""
-    stopped = sm.stopped
     law, u, dwell_seg, pos = _timed(path, machine, lim, stopped, jerk)
     fast = None
     if sm.blends * law.window >= _BLEND_SHARE * len(u) * machine.period:
