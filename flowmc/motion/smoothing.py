@@ -78,6 +78,8 @@ _SPARE = 0.6
 _RELAX = 1.6
 _MIN_SPANS = 10  # a run, however short, has room to turn: six of its control points are held by its ends
 _END_FIT = 2.0  # mm of programmed path a free run end takes its direction from
+_END_BENT = 0.5 * math.pi  # rad: where that path turns more than this (a tight spiral's centre) a quadratic
+_END_TURN = 0.6  # misjudges the end's direction: the span is shortened until it turns at most this
 _TOL_SHARE = 0.99  # of the tolerance left for smoothing, after the sampled chords sagitta
 _KNOT_TOL = 2.0  # least knot spacing, in tolerances
 _KNOT_SEGMENT = 0.4  # knot spacing in a run's typical programmed segment lengths
@@ -139,6 +141,14 @@ class _Elements:
     t1: np.ndarray
     k0: np.ndarray
     k1: np.ndarray
+
+
+def _turning(chords: np.ndarray) -> float:
+    """Net angle, in radians, between the first and last of ``chords``: a steady curve's turning (a zigzag's
+    corners, which a quadratic averages out, cancel)."""
+    u = chords[np.linalg.norm(chords, axis=1) > 1e-12]
+    u = u / np.linalg.norm(u, axis=1, keepdims=True)
+    return float(np.arccos(np.clip(u[0] @ u[-1], -1.0, 1.0))) if len(u) > 1 else 0.0
 
 
 def _unit_and_curvature(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -365,6 +375,13 @@ class _RunFitter:
         for r in np.flatnonzero(free):
             span = min(_END_FIT, 0.25 * length[r])
             pts = self.raw.points(at[r] + way * span * x)
+            turn = _turning(np.diff(pts, axis=0))
+            for _ in range(3 if turn > _END_BENT else 0):
+                span *= _END_TURN / turn
+                pts = self.raw.points(at[r] + way * span * x)
+                turn = _turning(np.diff(pts, axis=0))
+                if turn <= _END_TURN * 1.05:
+                    break
             coef = np.polynomial.polynomial.polyfit(span * x, pts, 2)
             slope = way * coef[1]
             out[r] = slope / max(float(np.linalg.norm(slope)), 1e-300)

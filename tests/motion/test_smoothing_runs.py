@@ -29,3 +29,16 @@ def test_runs_fitted_together_get_the_curves_they_get_alone():
         np.testing.assert_allclose(both.coef[both.offset[r]:both.offset[r] + n], alone.coef, rtol=0, atol=1e-9)
         np.testing.assert_array_equal(both.knots[r], alone.knots[0])
         assert both.ok[r] == alone.ok[0] and abs(both.deviation[r] - alone.deviation[0]) <= 1e-9
+
+
+def test_free_end_at_a_tight_spiral_centre_takes_the_direction_it_arrives_in():
+    # LinuxCNC's spiral.ngc in mm, its last 2.5 turns: 4.5 degree steps, 0.0635 mm nearer the centre each,
+    # ending there; the last 2 mm turn about 2.6 rad, so a quadratic over them points about 39 degrees off
+    k = np.arange(161)
+    r, th = 0.0635 * (160 - k), np.radians(4.5) * k
+    pts = np.c_[r * np.cos(th), r * np.sin(th)]
+    raw, _ = raw_curve(Path.polyline(pts, feed=200.0))
+    fit = _RunFitter(raw, np.array([1.0]), np.array([raw.u1[-1]]), np.array([False]), np.array([True]), 0.05,
+                     np.array([0.1]))
+    last = (pts[-1] - pts[-2]) / np.linalg.norm(pts[-1] - pts[-2])
+    assert np.degrees(np.arccos(fit.end_tangent[1][0, :2] @ last)) < 10.0
