@@ -19,7 +19,7 @@ flowmc's scenes use neither (``guarded_server`` configures both off), so the ser
 without them (``_PLAIN_START``).
 
 A page may also be told where the server will dock its panels (``inset``: the left rail and right column,
-CSS pixels): until the first docked panel arrives, the scene's box (``_SCENE``, beside the docks' ``_DOCK``
+CSS pixels): until the first docked panel arrives (a script then drops the rule), the scene's box (``_SCENE``, beside the docks' ``_DOCK``
 boxes) is inset by as much, so the viewer's canvas takes its final size when it mounts. Without this it
 was sized to the whole page first and again once the server's panels docked, and each size allocates the
 antialiased drawing buffer anew (a fifth of a 120-node open's main-thread time under software WebGL).
@@ -126,12 +126,18 @@ def files() -> ClientFiles | None:
 
 
 def _reserve(css: str, inset: tuple[int, int] | None) -> str:
-    """The rule keeping the scene's box ``inset`` (left, right px) in from the page's sides while no panel is
-    docked yet ("" when there is nothing to keep or this viser's class names are not the expected ones)."""
+    """A style keeping the scene's box ``inset`` (left, right px) in from the page's sides while no panel is
+    docked, and a script dropping it once one is (a user may later float every panel). "" when there is nothing
+    to keep, or this viser's class names are not the expected ones. A window too narrow for viser to dock in
+    (its ``xs`` breakpoint, 36 em) gets no inset."""
     if inset is None or _SCENE not in css or _DOCK not in css:
         return ""
     scene, dock = _SCENE[:-1], _DOCK[:-1]
-    return f"div:not(:has(> {dock})) > {scene}{{inset:0 {inset[1]}px 0 {inset[0]}px!important}}"
+    return (f'<style id="flowmc-inset">@media not all and (max-width: 36em) {{ div:not(:has(> {dock})) > {scene} '
+            f'{{ inset: 0 {inset[1]}px 0 {inset[0]}px !important; }} }}</style>\n'
+            f'<script>(() => {{ const docked = () => document.querySelector("div:has(> {dock}) > {scene}") ?\n'
+            f'  document.getElementById("flowmc-inset").remove() : requestAnimationFrame(docked);\n'
+            f'  requestAnimationFrame(docked); }})();</script>\n')
 
 
 def page(token: str, inset: tuple[int, int] | None = None) -> str | None:
@@ -143,7 +149,7 @@ def page(token: str, inset: tuple[int, int] | None = None) -> str | None:
     if client is None:
         return None
     app, wasm = (f"{PREFIX}{name}?v={client.assets[name].digest}&token={token}" for name in ("app.js", "zstd.wasm"))
-    return (f'{client.head}\n<style>{client.css}{_reserve(client.css, inset)}</style>\n'
+    return (f'{client.head}\n<style>{client.css}</style>\n{_reserve(client.css, inset)}'
             f'<link rel="modulepreload" href="{app}" />\n'
             f'<script type="module">globalThis.__viserZstdWasm = await WebAssembly.compileStreaming(fetch("{wasm}"));\n'
             f'await import("{app}");</script>\n</head>\n<body>\n<noscript>You need to enable JavaScript to run this app.'

@@ -130,4 +130,5 @@ def test_the_canvas_takes_its_final_size_before_the_panels_dock(tmp_path, open_e
     assert len(sizes) == 1, sizes
     assert sizes[0][0] == round(box["width"]) < 1600 - 300  # the right column's room left out from the start
     assert round(box["x"]) == (40 if extensions else 0)
+    assert ui.page.evaluate("document.getElementById('flowmc-inset') === null")  # docked: the panels' own places rule
     ui.page.close()
