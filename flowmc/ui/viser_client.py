@@ -19,8 +19,9 @@ flowmc's scenes use neither (``guarded_server`` configures both off), so the ser
 without them (``_PLAIN_START``).
 
 A page may also be told where the server will dock its panels (``inset``: the left rail and right column,
-CSS pixels): until the first docked panel arrives (a script then drops the rule), the scene's box (``_SCENE``, beside the docks' ``_DOCK``
-boxes) is inset by as much, so the viewer's canvas takes its final size when it mounts. Without this it
+CSS pixels): until the first docked panel arrives (a script then drops the rule), the scene's box
+(``_SCENE``, beside the docks' ``_DOCK`` boxes) is inset by as much, so the viewer's canvas takes its
+final size when it mounts. Without this it
 was sized to the whole page first and again once the server's panels docked, and each size allocates the
 antialiased drawing buffer anew (a fifth of a 120-node open's main-thread time under software WebGL).
 
