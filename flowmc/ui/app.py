@@ -57,12 +57,6 @@ NETWORK_WARNING = ("warning: the editor is listening on {host}: anyone who can r
                    "can open it, edit graphs and run the machine (motion, outputs, spindle). Use only on a trusted network.")
 
 
-# Where the page's docked panels sit (CSS px), reserved before they arrive so the canvas is sized once: the
-# collapsed 3D view's rail on the left (with extensions) and the right column, viser's "medium" control
-# width (20 rem) with its 2 px edges.
-RAIL_PX, COLUMN_PX = 40, 324
-
-
 class Editor:
     """The whole editor on one viser server, over an ``EditorSession`` (``session``). It is the
     ``PanelHost`` its panels get. ``devices`` / ``jobs``: the device session and job runner the
@@ -83,8 +77,7 @@ class Editor:
         self._toasts: dict[int, list[Any]] = {}
         self._settles = 0
         self._page_handlers: dict[str, Callable[[Any, Any], object]] = {}
-        self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False,
-                                                     inset=(RAIL_PX if extensions else 0, COLUMN_PX))
+        self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
         self.server.gui.configure_theme(show_share_button=False, show_logo=False, control_width="medium")
         self.server.gui.main_panel.dock_right()

@@ -18,13 +18,6 @@ WebGL loading and prefiltering that map (then recompiling every material without
 flowmc's scenes use neither (``guarded_server`` configures both off), so the served client starts
 without them (``_PLAIN_START``).
 
-A page may also be told where the server will dock its panels (``inset``: the left rail and right column,
-CSS pixels): until the first docked panel arrives (a script then drops the rule), the scene's box
-(``_SCENE``, beside the docks' ``_DOCK`` boxes) is inset by as much, so the viewer's canvas takes its
-final size when it mounts. Without this it
-was sized to the whole page first and again once the server's panels docked, and each size allocates the
-antialiased drawing buffer anew (a fifth of a 120-node open's main-thread time under software WebGL).
-
 If the installed viser's page does not have the shape this expects, ``files()`` is None and viser
 serves its own page, as before (slower, nothing else changes); tests/ui/test_viser_client.py fails then.
 """
@@ -56,8 +49,6 @@ _PAYLOAD = re.compile(r'<script data-p="([^"]*)" data-ss="(\d+)" data-cs="(\d+)"
 _WASM = re.compile(r'gzWasm="((?:[^"\\]|\\.)*)"')
 # The client's environment before the server configures one: default lights on, the built-in HDRI (null).
 _DEFAULT_START = "enableDefaultLights:!0,enableDefaultLightsShadows:!0,environmentMap:null,"
-# viser 1.1.1's class names (its build hashes them) of the scene's box and of a docked column's box.
-_SCENE, _DOCK = ".cb6siu4{", ".cb6siu3{"
 _PLAIN_START = ("enableDefaultLights:!1,enableDefaultLightsShadows:!1,environmentMap:{type:`EnvironmentMapMessage`,"
                 "hdri_data:null,background:!1,background_blurriness:0,background_intensity:1,"
                 "background_wxyz:[1,0,0,0],environment_intensity:1,environment_wxyz:[1,0,0,0]},")
@@ -126,32 +117,15 @@ def files() -> ClientFiles | None:
                         "zstd.wasm": _asset("application/wasm", wasm)})
 
 
-def _reserve(css: str, inset: tuple[int, int] | None) -> str:
-    """A style keeping the scene's box ``inset`` (left, right px) in from the page's sides while no panel is
-    docked, and a script dropping it once one is (a user may later float every panel). "" when there is nothing
-    to keep, or this viser's class names are not the expected ones. A window too narrow for viser to dock in
-    (its ``xs`` breakpoint, 36 em) gets no inset."""
-    if inset is None or _SCENE not in css or _DOCK not in css:
-        return ""
-    scene, dock = _SCENE[:-1], _DOCK[:-1]
-    return (f'<style id="flowmc-inset">@media not all and (max-width: 36em) {{ div:not(:has(> {dock})) > {scene} '
-            f'{{ inset: 0 {inset[1]}px 0 {inset[0]}px !important; }} }}</style>\n'
-            f'<script>(() => {{ const docked = () => document.querySelector("div:has(> {dock}) > {scene}") ?\n'
-            f'  document.getElementById("flowmc-inset").remove() : requestAnimationFrame(docked);\n'
-            f'  requestAnimationFrame(docked); }})();</script>\n')
-
-
-def page(token: str, inset: tuple[int, int] | None = None) -> str | None:
+def page(token: str) -> str | None:
     """The client's page: the script and decoder are fetched with ``token`` (a cross-site frame, like the
     3D view, sends no cookie) under addresses naming their content's hash, so a browser may keep them
-    (``CACHE``). ``inset``: where the server docks its panels (left rail, right column, CSS px), reserved
-    for them from the start. None when the client could not be unpacked."""
+    (``CACHE``). None when the client could not be unpacked."""
     client = files()
     if client is None:
         return None
     app, wasm = (f"{PREFIX}{name}?v={client.assets[name].digest}&token={token}" for name in ("app.js", "zstd.wasm"))
-    return (f'{client.head}\n<style>{client.css}</style>\n{_reserve(client.css, inset)}'
-            f'<link rel="modulepreload" href="{app}" />\n'
+    return (f'{client.head}\n<style>{client.css}</style>\n<link rel="modulepreload" href="{app}" />\n'
             f'<script type="module">globalThis.__viserZstdWasm = await WebAssembly.compileStreaming(fetch("{wasm}"));\n'
             f'await import("{app}");</script>\n</head>\n<body>\n<noscript>You need to enable JavaScript to run this app.'
             f'</noscript>\n<div id="root"></div>\n</body>\n</html>\n')

@@ -393,8 +393,7 @@ def _set_header(headers: Headers, key: str, value: str) -> None:
     headers[key] = value
 
 
-def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None,
-                             inset: tuple[int, int] | None) -> Callable[..., Any]:
+def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None) -> Callable[..., Any]:
     def process_request(connection: Any, request: Any) -> Any:
         port = connection.local_address[1]
         headers = request.headers
@@ -408,7 +407,7 @@ def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None,
             for key, value in _SECURITY_HEADERS.items():
                 _set_header(response.headers, key, value)
             return response
-        response = _client_response(guard, request, inset)
+        response = _client_response(guard, request)
         if response is None:
             response = inner(connection, request) if inner is not None else None
         if response is not None:  # a page or file (a websocket handshake returns None and goes on)
@@ -423,12 +422,12 @@ def _guarded_process_request(guard: Guard, inner: Callable[..., Any] | None,
     return process_request
 
 
-def _client_response(guard: Guard, request: Any, inset: tuple[int, int] | None) -> Response | None:
+def _client_response(guard: Guard, request: Any) -> Response | None:
     """viser's client as ``viser_client`` serves it (the page, its script and decoder), or None: viser answers."""
     if request.headers.get("Upgrade") == "websocket":
         return None
     path = request.path.partition("?")[0]
-    text = viser_client.page(guard.token, inset) if path in ("/", "/index.html") else None
+    text = viser_client.page(guard.token) if path in ("/", "/index.html") else None
     asset = viser_client.Asset("text/html; charset=utf-8", text.encode("utf-8"), None) if text is not None \
         else viser_client.asset(path)
     if asset is None:
@@ -446,18 +445,16 @@ def _client_response(guard: Guard, request: Any, inset: tuple[int, int] | None) 
     return Response(200, "OK", headers, body)
 
 
-def guarded_server(guard: Guard, *, inset: tuple[int, int] | None = None, **kwargs: Any) -> viser.ViserServer:
+def guarded_server(guard: Guard, **kwargs: Any) -> viser.ViserServer:
     """``viser.ViserServer(**kwargs)`` that answers only requests passing ``guard`` and lets clients
-    change only the values of enabled, visible controls. ``inset``: where its panels will dock (left, right
-    CSS px; ``viser_client.page``)."""
+    change only the values of enabled, visible controls."""
     real = _infra.websockets
     real_serve = real.asyncio.server.serve
     used: list[bool] = []
 
     def serve(handler: Any, *args: Any, process_request: Any = None, **options: Any) -> Any:
         used.append(True)
-        guarded = _guarded_process_request(guard, process_request, inset)
-        return real_serve(handler, *args, process_request=guarded, **options)
+        return real_serve(handler, *args, process_request=_guarded_process_request(guard, process_request), **options)
 
     stand_in = _Namespace(real, asyncio=_Namespace(real.asyncio, server=_Namespace(real.asyncio.server, serve=serve)))
     with _build_lock:

@@ -106,29 +106,3 @@ def test_a_second_open_in_the_same_browser_takes_the_client_from_its_cache(edito
         assert sources[1][""] is False
     finally:
         context.close()
-
-
-_SIZES = """(() => { window.__canvasSizes = [];
-  const poll = () => { const c = document.querySelector('canvas[data-engine]');
-    const size = c ? [c.width, c.height] : null, last = window.__canvasSizes.at(-1);
-    if (size && (!last || last[0] !== size[0] || last[1] !== size[1])) window.__canvasSizes.push(size);
-    requestAnimationFrame(poll); };
-  requestAnimationFrame(poll); })();"""
-
-
-@pytest.mark.parametrize("extensions", [True, False])
-def test_the_canvas_takes_its_final_size_before_the_panels_dock(tmp_path, open_editor, browser, extensions):
-    """The page reserves the docked panels' room (the 3D view's rail, the right column) from the start: the
-    viewer's canvas is sized once, not to the whole page first and again when the server's panels dock."""
-    editor = open_editor(example_file(tmp_path), extensions=extensions)
-    ui = EditorPage(browser, editor)
-    ui.page.add_init_script(_SIZES)
-    ui.open(timeout=60)
-    ui.page.wait_for_timeout(500)
-    sizes = [s for s in ui.page.evaluate("window.__canvasSizes") if s != [300, 150]]  # a canvas's default before sizing
-    box = ui.page.evaluate("document.querySelector('canvas[data-engine]').getBoundingClientRect().toJSON()")
-    assert len(sizes) == 1, sizes
-    assert sizes[0][0] == round(box["width"]) < 1600 - 300  # the right column's room left out from the start
-    assert round(box["x"]) == (40 if extensions else 0)
-    assert ui.page.evaluate("document.getElementById('flowmc-inset') === null")  # docked: the panels' own places rule
-    ui.page.close()
