@@ -72,6 +72,9 @@ _BENDING = 0.05  # the price of bending the offset, as a share of the load it ma
 _BAND_SHARE = 0.96  # of the tolerance the linear program plans for; the check holds the whole tolerance
 _CHECK_STEP = 0.01  # mm between the points the band and the deviation are worked out from
 _MARGIN = 1.0  # mm of path either side of a stretch that its check takes in
+_ONE_WAY = 0.9  # a fitted run is reshaped only if its net turning is this share of its total or more: a Gosper
+# curve's curls (flowsnake) net 1.5 pi and more, a rounded square is nothing to them, and their linear program took
+# 2 s (flowsnake.ngc) to 90 s (2,401 lines 0.0143 mm long) for no gain; a spiral's is about 1
 _LEAST_SHARE = 0.05  # of the curve's length the stretches must make up to be reshaped at all: every trial law plans
 # the whole curve (3D_Chips' fitted full turns, 1.2 % of it, gained 14 ms of 146 s for about 5 s of CPU)
 
@@ -135,8 +138,10 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
     unit = tangent / np.maximum(np.linalg.norm(tangent, axis=1), 1e-300)[:, None]
     bend = np.cross(unit, kappa[:, None] * normal)
 
-    def fitted_turn(ka: int, kb: int) -> float:
-        return float(np.linalg.norm(np.sum(bend[(u >= curve.u0[ka]) & (u < curve.u1[kb])], axis=0)) * (u[1] - u[0]))
+    def fitted_turn(ka: int, kb: int) -> float:  # 0 unless nearly all of it turns one way (_ONE_WAY)
+        inside = bend[(u >= curve.u0[ka]) & (u < curve.u1[kb])]
+        net = float(np.linalg.norm(np.sum(inside, axis=0)))
+        return net * (u[1] - u[0]) if net >= _ONE_WAY * float(np.sum(np.linalg.norm(inside, axis=1))) else 0.0
 
     # arcs in parts of about _PART mm; fitted runs whole (a spiral's rounded squares reach over a quarter turn)
     pieces = sorted(_pieces(curve, u, bound & on_arc, stops, arc_turn, _PART)

@@ -76,3 +76,17 @@ def test_jerk_limited_plans_keep_the_programmed_arc():
     p = plan_smooth(full_circle(), machine(), profile="scurve")
     radius = np.linalg.norm(p.trajectory.positions[:, :2], axis=1) - 18.0
     assert np.abs(radius).max() < 1e-6
+
+
+def test_a_curly_run_is_not_reshaped():
+    # a Gosper curve of short lines (as flowsnake.ngc) curls both ways: its fitted run nets over 1.5 pi of
+    # turning, and a rounded square is nothing to it (flowsnake's linear program cost 2 s of CPU for no gain,
+    # 2,401 lines 0.0143 mm long 90 s); only runs that turn nearly all one way are (reshape._ONE_WAY)
+    from flowmc.motion.limits import PathLimits
+    from flowmc.motion.reshape import reshape_curved
+    from flowmc.motion.smoothing import fit_tolerance, raw_curve, smooth_path
+    from tests.motion.test_jerk_retime import gosper
+
+    path, lim = gosper(3, 0.03), PathLimits.of(machine())
+    sm = smooth_path(path, lim, TOL)
+    assert reshape_curved(sm.curve, raw_curve(path)[0], sm.stop_u, sm.seg_feed, lim, fit_tolerance(lim, TOL)) == []
