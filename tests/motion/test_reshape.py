@@ -24,6 +24,16 @@ def full_circle(r: float = 18.0) -> Path:
     return Path([Arc(start, start, (0.0, 0.0, 0.0), ccw=False)]).with_feed(200.0)
 
 
+def assert_within_limits_and_band(p, path: Path) -> None:
+    """Per-axis velocity and acceleration from the samples at most the limits; within TOL of the path both ways."""
+    limits = np.full(3, 200.0)
+    assert peak_ratio(p.trajectory, limits, order=1) <= 1.0 + 1e-9
+    assert peak_ratio(p.trajectory, limits, order=2) <= 1.0 + 1e-6
+    programmed = programmed_polyline(path)
+    assert contour_error(p.trajectory.positions, programmed) <= TOL
+    assert coverage_error(p.trajectory.positions, programmed) <= TOL
+
+
 def test_a_circle_is_passed_as_a_rounded_square_within_the_band_and_faster():
     # at 200 mm/s^2 per axis a circle loads one axis fully where its normal is parallel to an axis and each
     # only 1/sqrt(2) where it is diagonal; flatter at the axes and sharper at the diagonals, the curve is
@@ -37,12 +47,7 @@ def test_a_circle_is_passed_as_a_rounded_square_within_the_band_and_faster():
     for at, side in ((0.0, -1), (90.0, -1), (180.0, -1), (-90.0, -1), (45.0, 1), (135.0, 1), (-45.0, 1)):
         near = np.abs((angle - at + 180.0) % 360.0 - 180.0) < 2.0
         assert side * radius[near].mean() > 0.6 * TOL  # inside at the axes, outside at the diagonals
-    limits = np.full(3, 200.0)
-    assert peak_ratio(p.trajectory, limits, order=1) <= 1.0 + 1e-9
-    assert peak_ratio(p.trajectory, limits, order=2) <= 1.0 + 1e-6
-    programmed = programmed_polyline(path)
-    assert contour_error(p.trajectory.positions, programmed) <= TOL
-    assert coverage_error(p.trajectory.positions, programmed) <= TOL
+    assert_within_limits_and_band(p, path)
     assert p.smoothed.deviation <= TOL
 
 
@@ -63,12 +68,7 @@ def test_a_spiral_of_short_lines_is_passed_as_rounded_squares_within_the_band_an
     for at in range(0, 360, 45):
         near = middle & (np.abs((angle - at + 180.0) % 360.0 - 180.0) < 2.0)
         assert (1 if at % 90 else -1) * off[near].mean() > 0.6 * TOL
-    limits = np.full(3, 200.0)
-    assert peak_ratio(p.trajectory, limits, order=1) <= 1.0 + 1e-9
-    assert peak_ratio(p.trajectory, limits, order=2) <= 1.0 + 1e-6
-    programmed = programmed_polyline(path)
-    assert contour_error(p.trajectory.positions, programmed) <= TOL
-    assert coverage_error(p.trajectory.positions, programmed) <= TOL
+    assert_within_limits_and_band(p, path)
 
 
 def test_jerk_limited_plans_keep_the_programmed_arc():
