@@ -139,7 +139,7 @@ def test_hold_with_esc_at_30_percent_resume_and_feed_override_50(ui, tmp_path):
 def test_stop_button_decelerates_along_the_path_and_leaves_the_outputs_safe(ui, tmp_path):
     ui.editor.job_panel.speed.value = 1.0  # real time: the page's click latency under load stays well inside the job
     _run_then_start(ui)
-    runner = _card(ui, 0.4)
+    runner = _card(ui, 0.72)  # the last side: 3.2 s at 20 mm/s, room for a click that waits on a busy page
     wait_until(lambda: _speed_now(runner) > 19.0, 30, "cruising at the programmed 20 mm/s")
     assert runner.status.outputs["spindle_rpm"] > 0  # the spindle runs while it cuts
     ui.page.get_by_role("button", name="Stop", exact=True).click()
