@@ -75,11 +75,12 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     jerk = profile == "scurve"
     _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
     sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
+    known = None  # the trapezoid time law of sm.curve, where reshaping worked it out
     if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
-        sm = faster_reshaped(sm, path, lim, tolerance, lambda curve: plan_time_law(
+        sm, known = faster_reshaped(sm, path, lim, tolerance, lambda curve: plan_time_law(
             curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=False, mend_swings=True))
     if sm.stopped is None:
-        law, u, dwell_seg, pos = _timed(path, machine, lim, sm, jerk)
+        law, u, dwell_seg, pos = _timed(path, machine, lim, sm, jerk, known)
         if jerk:
             law, u, dwell_seg, pos = _retimed(path, machine, lim, sm, law, u, dwell_seg, pos)
     else:
@@ -114,13 +115,13 @@ def _blended_or_stopped(path: Path, machine: Machine, lim: PathLimits, sm: Smoot
     return sm, fast
 
 
-def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bool):
-    """The time law on a smoothed curve and its samples."""
+def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bool, known: TimeLaw | None = None):
+    """The time law on a smoothed curve (``known``: the trapezoid law already worked out for it) and its samples."""
     curve = sm.curve
 
     def planned(mend_swings: bool):
-        law = plan_time_law(curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=jerk,
-                            mend_swings=mend_swings)
+        law = known if known is not None else plan_time_law(
+            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=jerk, mend_swings=mend_swings)
         u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
         pos = curve.points(u)
         pos[0], pos[-1] = path.start, path.end

@@ -80,14 +80,15 @@ _LEAST_SHARE = 0.05  # of the curve's length the stretches must make up to be re
 
 
 def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: float,
-                    law_of: Callable[[PlannedCurve], TimeLaw]) -> Smoothed:
+                    law_of: Callable[[PlannedCurve], TimeLaw]) -> tuple[Smoothed, TimeLaw | None]:
     """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``law_of``) passes faster than
-    before, if the whole is faster too; ``sm`` itself otherwise."""
+    before, if the whole is faster too; ``sm`` itself otherwise. With it, the time law of the curve returned
+    where one was worked out (None where nothing was found to reshape), so the caller need not plan it again."""
     raw, _ = raw_curve(path)
     tol_fit = fit_tolerance(limits, tolerance)
     found = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
     if not found:
-        return sm
+        return sm, None
     law = law_of(sm.curve)
     before = _clock(law, [sm.curve.length])[0]
     for _ in range(3):  # all found, then those that gained (a stretch's neighbours change speed too), then again
@@ -96,12 +97,12 @@ def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: flo
         faster = [f for f in found if np.diff(_clock(new, f[3]))[0] < np.diff(_clock(law, f[3]))[0]]
         if len(faster) == len(found):
             if _clock(new, [curve.length])[0] < before:
-                return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found)))
+                return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found))), new
             break
         if not faster:
             break
         found = faster
-    return sm
+    return sm, law
 
 
 def _clock(law: TimeLaw, u) -> np.ndarray:
