@@ -335,6 +335,29 @@ def test_jerk_limited_corner_blends_are_curvature_continuous_within_the_toleranc
     assert np.abs(np.diff(kappa)).max() < 1e-2 * kappa.max()  # no jump anywhere (a tangent arc would jump by all of it)
 
 
+def test_a_gcode_plan_rests_where_a_rapid_meets_a_feed_move_and_blends_feed_corners():
+    """LinuxCNC stops where G0 meets G1 (tests/linuxcnc/test_rapid_feed_junctions.py), so flowmc does too."""
+    from flowmc.motion.gcode import parse_gcode
+
+    path = parse_gcode("G21 G90\nG0 X300\nG1 Y20 F3000\nG1 X320\nG0 Y260 Z10\nM2\n", rapid_feed=150.0)
+    traj = plan_smooth(path, machine(period=0.001), tolerance=TOL).trajectory
+    pos, T = traj.positions, traj.period
+    v = np.diff(pos, axis=0) / T
+    speed = np.linalg.norm(v, axis=1)
+
+    def slowest_near(point):
+        return speed[np.linalg.norm(pos[:-1] - np.asarray(point, dtype=float), axis=1) <= 0.2].min()
+
+    assert slowest_near((300, 0, 0)) < 0.1 and slowest_near((320, 20, 0)) < 0.1  # the two G0/G1 junctions
+    assert slowest_near((300, 20, 0)) > 2.0  # the G1/G1 corner is blended
+    seg = traj.segment[1:]
+    rapid = np.array([s.rapid for s in path.segments])[seg]
+    feed = np.flatnonzero(~rapid)
+    assert contour_error(pos[feed[0]:feed[-1] + 2], programmed_polyline(path)) <= TOL
+    assert 149.0 < speed[rapid].max() <= 150.0 * (1 + 1e-9) and speed[~rapid].max() <= 50.0 * (1 + 1e-9)
+    assert np.abs(v).max() <= 200.0 + 1e-9 and np.abs(np.diff(v, axis=0) / T).max() <= 200.0 * 1.01
+
+
 # ---------------------------------------------------------------- how close to time-optimal
 
 @pytest.mark.parametrize("name", NAMES)
