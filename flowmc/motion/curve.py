@@ -20,10 +20,11 @@ from functools import cached_property
 
 import numpy as np
 
+from flowmc.motion.ranges import CHUNK, CHUNKED
+
 __all__ = ["POLY", "ARC", "PlannedCurve", "CurveBuilder"]
 
 POLY, ARC = 0, 1
-_CHUNK = 16384  # points evaluated together, where there are more than four times as many
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,12 +90,12 @@ class PlannedCurve:
     def evaluate(self, u, order: int = 0, index: np.ndarray | None = None, lowest: int = 0) -> list[np.ndarray]:
         """[p^(lowest), ..., p^(order)] at the parameters u (by default [p, p', ...]), each (len(u), 3);
         ``index``: their intervals if known. Derivatives alone skip the positions' arithmetic. Worked out
-        _CHUNK points at a time: the same arithmetic point by point, with every temporary in cache."""
+        CHUNK points at a time: the same arithmetic point by point, with every temporary in cache."""
         u = np.asarray(u, dtype=float).reshape(-1)
         k = self.interval_at(u) if index is None else np.asarray(index)
-        if len(u) <= 4 * _CHUNK:
+        if len(u) <= CHUNKED:
             return self._evaluate(u, k, order, lowest)
-        parts = [self._evaluate(u[i:i + _CHUNK], k[i:i + _CHUNK], order, lowest) for i in range(0, len(u), _CHUNK)]
+        parts = [self._evaluate(u[i:i + CHUNK], k[i:i + CHUNK], order, lowest) for i in range(0, len(u), CHUNK)]
         return [np.concatenate(p, axis=0) for p in zip(*parts)]
 
     def _evaluate(self, u: np.ndarray, k: np.ndarray, order: int, lowest: int) -> list[np.ndarray]:

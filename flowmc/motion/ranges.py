@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["Windows", "window_min", "window_max", "moving_means", "range_medians"]
+__all__ = ["CHUNK", "CHUNKED", "Windows", "window_min", "window_max", "moving_means", "range_medians"]
+
+CHUNK = 16384  # elements a long pass works out together (the curve's points, the time law's intervals) ...
+CHUNKED = 4 * CHUNK  # ... where there are more than this: every temporary then stays in cache
 
 
 class Windows:

@@ -54,7 +54,7 @@ import numpy as np
 from flowmc.errors import PlanningError
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.ranges import Windows, window_max, window_min
+from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
 from flowmc.motion.sample_clock import setpoint_times
 
 __all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "arc_length_at", "speed_at",
@@ -86,8 +86,6 @@ _WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): th
 _SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over half the budget less than this
 _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
-_CHUNK = 16384  # intervals whose budgets are worked out together (see _Budgets._parts) ...
-_CHUNKED = 4 * _CHUNK  # ... when there are more than this (shorter arrays stay in cache whole)
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,7 +273,7 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tup
     own = np.flatnonzero(np.r_[k_iv[1:] != k_iv[:-1], True])  # ends that are no start on the same interval
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:][own]])
     index = np.concatenate([k_iv, k_iv, k_iv[own]])
-    step = _CHUNK if len(pts) > _CHUNKED else len(pts)  # in cache
+    step = CHUNK if len(pts) > CHUNKED else len(pts)  # in cache
     chunks = [frame(curve, pts[i:i + step], index[i:i + step]) for i in range(0, len(pts), step)]
     out = []
     for a in (np.concatenate(p, axis=0) for p in zip(*chunks)):
@@ -349,9 +347,9 @@ class _Budgets:
         """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
         up to twice the budget within Tj), elsewhere for jumps of up to the budget. ``least`` (without a jerk
         limit only): the speed^2 is at least this on the interval, so a normal term that helps counts that
-        much (else it counts as at rest). Worked out _CHUNK intervals at a time past _CHUNKED (``_parts``)."""
+        much (else it counts as at rest). Worked out CHUNK intervals at a time past CHUNKED (``_parts``)."""
         n = len(level)
-        if n <= _CHUNKED or not self.axes:
+        if n <= CHUNKED or not self.axes:
             return self._budgets(level, swing, least)
         up, down = np.empty(n), np.empty(n)
         for part, at in self._parts:
@@ -361,12 +359,12 @@ class _Budgets:
 
     @cached_property
     def _parts(self) -> list[tuple[_Budgets, slice]]:
-        """These budgets over every _CHUNK intervals: the same terms (views), so the same numbers, while every
+        """These budgets over every CHUNK intervals: the same terms (views), so the same numbers, while every
         temporary of a part stays in the processor's cache (one pass over the whole arrays per term is
         bound by memory: about a third slower for 3D_Chips' 152,000 intervals)."""
         parts = []
-        for start in range(0, len(self.axes[0]["alpha"]), _CHUNK):
-            at = slice(start, start + _CHUNK)
+        for start in range(0, len(self.axes[0]["alpha"]), CHUNK):
+            at = slice(start, start + CHUNK)
             part = object.__new__(type(self))
             part.window, part.axes = self.window, [{key: v[at] if np.ndim(v) else v for key, v in row.items()}
                                                   for row in self.axes]
