@@ -21,7 +21,8 @@ without them (``_PLAIN_START``).
 And under software WebGL (SwiftShader, llvmpipe: what viser's own check calls software) the canvas is not
 multisampled (``_SOFTWARE_START``): the 4x antialiased drawing buffer was most of the GPU process's work at
 an open (reallocated at each canvas size, resolved at each frame). flowmc's wires are screen-space lines that
-smooth their own edges, labels are HTML and boxes are axis-aligned, so the canvas looks the same without it.
+smooth their own edges, labels read the same and boxes are axis-aligned (their frames are kept a pixel wide,
+``Canvas._frame_zoom``), so the canvas looks the same without it.
 The page asks WebGL for its renderer once (``_PROBE``, the context then released) and viser's software
 check reads that answer instead of making a throw-away context of its own.
 
