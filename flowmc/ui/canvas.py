@@ -77,6 +77,7 @@ class Canvas:
         self._port_memo: tuple[tuple, draw.Quads] | None = None
         self._wire_memo: tuple[tuple, np.ndarray, np.ndarray, dict] | None = None
         self.wire_px = WIRE_CANVAS_PX  # wires' screen thickness for the current zoom
+        self.frame_edge = draw.FRAME_EDGE  # node frames' width for the current zoom (at least a screen pixel)
         scene = server.scene
         scene.set_up_direction("+y")
         scene.add_light_ambient("/light", intensity=draw.AMBIENT)
@@ -143,7 +144,8 @@ class Canvas:
 
     def _zoomed(self, cam: Any) -> None:
         per_px = camera.screen_px_per_world(cam)
-        if per_px is not None and (self.texts.zoom(per_px * layout.SCALE) | self._wire_zoom(per_px * layout.SCALE)):
+        if per_px is not None and (self.texts.zoom(per_px * layout.SCALE) | self._wire_zoom(per_px * layout.SCALE)
+                                   | self._frame_zoom(per_px)):
             self.server.flush()
 
     def _wire_zoom(self, screen_px_per_canvas_px: float) -> bool:
@@ -156,6 +158,19 @@ class Canvas:
         handle = self._handles.get("wires")
         if handle is not None:
             handle.thickness = px
+        return True
+
+    def _frame_zoom(self, screen_px_per_world: float) -> bool:
+        """Node frames are kept 1 to 1.5 screen pixels wide where ``FRAME_EDGE`` would be thinner: under software
+        WebGL the canvas is not multisampled (``viser_client``), and a frame under a pixel wide lost whole edges
+        in a zoomed-out view. True when the frames were made again."""
+        low, high = max(draw.FRAME_EDGE, 1.0 / screen_px_per_world), max(draw.FRAME_EDGE, 1.5 / screen_px_per_world)
+        if low <= self.frame_edge <= high:
+            return False
+        self.frame_edge = max(draw.FRAME_EDGE, 1.2 / screen_px_per_world)
+        if self.boxes:
+            with self.lock, self.server.atomic():
+                self._draw_shapes()
         return True
 
     def fit(self, clients: list[viser.ClientHandle] | None = None) -> None:
@@ -172,6 +187,7 @@ class Canvas:
             per_px = zooms[1] if len(zooms) > 1 else zooms[0]
             self.texts.zoom(per_px * layout.SCALE)
             self._wire_zoom(per_px * layout.SCALE)
+            self._frame_zoom(per_px)
 
     def view_centre(self) -> tuple[float, float]:
         """Canvas pixels at the middle of the first client's view (where palette nodes appear)."""
@@ -312,7 +328,7 @@ class Canvas:
 
     def _draw_shapes(self) -> None:
         state, t = self.state, self.theme
-        quads = draw.node_quads(self.boxes, self.status, set(state.selected_nodes), self.problems, t)
+        quads = draw.node_quads(self.boxes, self.status, set(state.selected_nodes), self.problems, t, self.frame_edge)
         quads["ports"] = self._ports()
         quads.update(draw.note_quads(self.notes, set(state.selected_notes), t))
         for name in _BATCHES:

@@ -15,7 +15,7 @@ from flowmc.ui.layout import COMMENT_BAR, SCALE, TITLE_H, NodeBox, NoteBox
 from flowmc.ui.ports import PortInfo, port_color
 
 __all__ = ["AMBIENT", "Theme", "LIGHT", "DARK", "THEMES", "mesh_rgb", "QUAD_VERTICES", "QUAD_FACES", "Quads",
-           "node_quads", "port_quads", "note_quads", "wire_segments", "port_label", "status_text", "shorten",
+           "FRAME_EDGE", "node_quads", "port_quads", "note_quads", "wire_segments", "port_label", "status_text", "shorten",
            "issue_node", "node_problems", "rows_preview", "STATUS_COLORS", "FRAME_SELECTED"]
 
 
@@ -94,14 +94,18 @@ def _quads(rects: list[tuple[float, float, float, float]], z: float, colors: lis
     return Quads(positions, scales, mesh_rgb(np.asarray(colors, dtype=np.uint8).reshape(n, 3)))
 
 
+FRAME_EDGE = 0.02  # a node frame's width beyond its body (world units); 0.05 when selected
+
+
 def node_quads(boxes: list[NodeBox], status: dict[str, Any], selected: set[str], problems: dict[str, list[str]],
-               theme: Theme = LIGHT) -> dict[str, Quads]:
+               theme: Theme = LIGHT, edge: float = FRAME_EDGE) -> dict[str, Quads]:
     """Frames (selection/problem colour), bodies (run status colour), title bars and problem badges (a node
-    with problems, or whose last run failed, gets one; the text is in the Problems list)."""
+    with problems, or whose last run failed, gets one; the text is in the Problems list). ``edge``: the
+    narrowest frame (the canvas passes one screen pixel when that is wider than ``FRAME_EDGE``)."""
     frames, frame_colors, bodies, body_colors, bars, bar_colors, badges = [], [], [], [], [], [], []
     for b in boxes:
         chosen = b.node_id in selected
-        m = 0.05 if chosen else 0.02
+        m = max(0.05 if chosen else FRAME_EDGE, edge)
         frames.append((b.x - m, b.y + m, b.w + 2 * m, b.h + 2 * m))
         flagged = has_badge(b.node_id, status, problems)
         frame_colors.append(theme.selected if chosen else theme.problem if flagged else theme.frame)

@@ -18,6 +18,14 @@ WebGL loading and prefiltering that map (then recompiling every material without
 flowmc's scenes use neither (``guarded_server`` configures both off), so the served client starts
 without them (``_PLAIN_START``).
 
+And under software WebGL (SwiftShader, llvmpipe: what viser's own check calls software) the canvas is not
+multisampled (``_SOFTWARE_START``): the 4x antialiased drawing buffer was most of the GPU process's work at
+an open (reallocated at each canvas size, resolved at each frame). flowmc's wires are screen-space lines that
+smooth their own edges, labels read the same and boxes are axis-aligned (their frames are kept a pixel wide,
+``Canvas._frame_zoom``), so the canvas looks the same without it.
+The page asks WebGL for its renderer once (``_PROBE``, the context then released) and viser's software
+check reads that answer instead of making a throw-away context of its own.
+
 If the installed viser's page does not have the shape this expects, ``files()`` is None and viser
 serves its own page, as before (slower, nothing else changes); tests/ui/test_viser_client.py fails then.
 """
@@ -52,6 +60,38 @@ _DEFAULT_START = "enableDefaultLights:!0,enableDefaultLightsShadows:!0,environme
 _PLAIN_START = ("enableDefaultLights:!1,enableDefaultLightsShadows:!1,environmentMap:{type:`EnvironmentMapMessage`,"
                 "hdri_data:null,background:!1,background_blurriness:0,background_intensity:1,"
                 "background_wxyz:[1,0,0,0],environment_intensity:1,environment_wxyz:[1,0,0,0]},")
+
+# viser's software-WebGL check (a throw-away context on every load) answers from the page's one probe, and
+# react-three-fiber's renderer is multisampled only where that probe found a GPU.
+_VISER_PROBE = ("function tfe(){let e=document.createElement(`canvas`),t=!1,n=`unknown`,r=`unknown`,i=!1,a=null;try{"
+                "a=e.getContext(`webgl2`)||e.getContext(`webgl`)}catch{i=!0}if(a){t=!0;let e=a.getExtension("
+                "`WEBGL_debug_renderer_info`);e?(n=a.getParameter(e.UNMASKED_RENDERER_WEBGL)??`unknown`,r=a.getParameter("
+                "e.UNMASKED_VENDOR_WEBGL)??`unknown`):console.log(`WEBGL_debug_renderer_info unavailable; software "
+                "rendering detection skipped.`)}else i||(t=!1);return{supported:t,renderer:n,vendor:r,"
+                "contextCreationFailed:i}}")
+_ANTIALIAS = "powerPreference:`high-performance`,antialias:!0,alpha:!0}"
+_SUBSTITUTIONS = ((_DEFAULT_START, _PLAIN_START),
+                  (_VISER_PROBE, "function tfe(){return globalThis.__flowmcWebGL()}"),
+                  (_ANTIALIAS, "powerPreference:`high-performance`,antialias:!globalThis.__flowmcWebGL().software,alpha:!0}"))
+# The page's probe, answered once: viser's fields (supported, renderer, vendor, contextCreationFailed) and
+# ``software`` by viser's own test of the renderer's name.
+_PROBE = """globalThis.__flowmcWebGL = () => globalThis.__flowmcGL ??= (() => {
+  const out = {supported: false, renderer: "unknown", vendor: "unknown", contextCreationFailed: false, software: false};
+  let gl = null;
+  try { const canvas = document.createElement("canvas"); gl = canvas.getContext("webgl2") || canvas.getContext("webgl"); }
+  catch { out.contextCreationFailed = true; }
+  if (gl) {
+    out.supported = true;
+    const info = gl.getExtension("WEBGL_debug_renderer_info");
+    if (info) {
+      out.renderer = gl.getParameter(info.UNMASKED_RENDERER_WEBGL) ?? "unknown";
+      out.vendor = gl.getParameter(info.UNMASKED_VENDOR_WEBGL) ?? "unknown";
+    }
+    out.software = /swiftshader|llvmpipe|softpipe|software/i.test(out.renderer);
+    gl.getExtension("WEBGL_lose_context")?.loseContext();
+  }
+  return out;
+})();"""
 
 
 class Asset(NamedTuple):
@@ -103,9 +143,10 @@ def files() -> ClientFiles | None:
         styles, scripts = int(found.group(2)), int(found.group(3))
         raw = zstandard.ZstdDecompressor().decompress(_base88(found.group(1)), max_output_size=styles + scripts)
         script = raw[styles:].decode("utf-8")
-        if len(raw) != styles + scripts or script.count(_DEFAULT_START) != 1:
+        if len(raw) != styles + scripts or any(script.count(old) != 1 for old, _new in _SUBSTITUTIONS):
             return None
-        script = script.replace(_DEFAULT_START, _PLAIN_START)
+        for old, new in _SUBSTITUTIONS:
+            script = script.replace(old, new)
         wasm = gzip.decompress(_base88(wasm_text.group(1).replace("\\\\", "\\")))
         if wasm[:4] != b"\0asm":
             return None
@@ -125,7 +166,7 @@ def page(token: str) -> str | None:
     if client is None:
         return None
     app, wasm = (f"{PREFIX}{name}?v={client.assets[name].digest}&token={token}" for name in ("app.js", "zstd.wasm"))
-    return (f'{client.head}\n<style>{client.css}</style>\n<link rel="modulepreload" href="{app}" />\n'
+    return (f'{client.head}\n<style>{client.css}</style>\n<link rel="modulepreload" href="{app}" />\n<script>{_PROBE}</script>\n'
             f'<script type="module">globalThis.__viserZstdWasm = await WebAssembly.compileStreaming(fetch("{wasm}"));\n'
             f'await import("{app}");</script>\n</head>\n<body>\n<noscript>You need to enable JavaScript to run this app.'
             f'</noscript>\n<div id="root"></div>\n</body>\n</html>\n')

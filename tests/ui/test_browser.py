@@ -13,7 +13,7 @@ from PIL import Image
 import flowmc
 from browser_helpers import EditorPage, expected, wait_until
 from editor_graphs import example_file
-from flowmc.ui import canvas_draw
+from flowmc.ui import camera, canvas_draw
 from flowmc.ui.app import Editor
 
 pytestmark = pytest.mark.browser
@@ -194,6 +194,36 @@ def test_frames_skip_unseen_work_and_wires_follow_the_zoom(browser, editor):
     ui.settled()
     wait_until(lambda: editor.canvas.wire_px > before + 0.5, what="thicker wires zoomed in")
     page.wait_for_function(f"({_WIRE_LOOK})()[0][0][1] === {editor.canvas.wire_px}", timeout=10000)
+    page.close()
+
+
+def test_node_frames_stay_a_screen_pixel_wide_zoomed_out(browser, editor):
+    """The canvas is not multisampled under software WebGL: zoomed out, a node's frame is widened to at least
+    a screen pixel each side (thinner, whole edges dropped out), and back to its own width zoomed in."""
+    ui = EditorPage(browser, editor)
+    ui.open()
+    ui.settled()
+    page, canvas = ui.page, editor.canvas
+
+    def edge_px() -> float:
+        per_px = camera.screen_px_per_world(next(iter(editor.server.get_clients().values())).camera)
+        frame, body = canvas._handles["frame"].batched_scales, canvas._handles["body"].batched_scales
+        return float(np.min(frame[:, :2] - body[:, :2]) / 2 * per_px)
+
+    x, y = ui.screen(*ui.box("shift").centre)
+    page.mouse.move(x, y)
+    for _ in range(6):
+        page.mouse.wheel(0, 400)  # zoom out
+        page.wait_for_timeout(150)
+    ui.settled()
+    wait_until(lambda: canvas.frame_edge > canvas_draw.FRAME_EDGE, what="frames widened zoomed out")
+    wait_until(lambda: 1.0 <= edge_px() <= 1.5, what="frames a screen pixel wide")
+    for _ in range(10):
+        page.mouse.wheel(0, -400)  # zoom in
+        page.wait_for_timeout(150)
+    ui.settled()
+    wait_until(lambda: canvas.frame_edge == canvas_draw.FRAME_EDGE, what="frames back to their width zoomed in")
+    assert edge_px() > 1.0
     page.close()
 
 

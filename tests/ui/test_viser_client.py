@@ -39,6 +39,8 @@ def test_the_installed_viser_client_unpacks_and_starts_plain():
     assert client is not None, "viser's index.html is not the shape viser_client expects: the editor serves it packed"
     script = client.assets["app.js"].body.decode()
     assert viser_client._PLAIN_START in script and viser_client._DEFAULT_START not in script
+    assert viser_client._VISER_PROBE not in script and viser_client._ANTIALIAS not in script
+    assert "antialias:!globalThis.__flowmcWebGL().software" in script
     assert "createRoot" in script and len(script) > 1_000_000
     assert client.assets["zstd.wasm"].body[:4] == b"\0asm"
     assert gzip.decompress(client.assets["app.js"].gzipped) == client.assets["app.js"].body
@@ -83,6 +85,25 @@ def test_a_browser_runs_the_served_client_without_the_default_environment(editor
         assert lights == 0
         assert errors == []
         ui.page.close()
+
+
+@pytest.mark.browser
+def test_software_webgl_is_probed_once_and_the_canvas_is_not_multisampled(editor):
+    """Under SwiftShader the page's one probe says software: viser's notice still shows (its check reads the
+    probe), no other throw-away context is made, and the renderer's context has no antialiasing."""
+    with chromium() as browser:
+        page = browser.new_page()
+        page.add_init_script("""(() => { const get = HTMLCanvasElement.prototype.getContext; window.__contexts = 0;
+            HTMLCanvasElement.prototype.getContext = function (kind, ...rest) {
+              if (String(kind).startsWith('webgl')) window.__contexts++; return get.call(this, kind, ...rest); }; })()""")
+        page.goto(editor.url)
+        page.wait_for_function("window.__flowmcCameraLocked === true", timeout=60000)
+        page.get_by_text("Software WebGL rendering detected").wait_for(timeout=10000)
+        probe = page.evaluate("globalThis.__flowmcGL")
+        assert probe["software"] is True and probe["supported"] is True and "SwiftShader" in probe["renderer"]
+        assert page.evaluate("window.__viserMutable.canvas.getContext('webgl2').getContextAttributes().antialias") is False
+        assert page.evaluate("window.__contexts") == 3  # the probe, the renderer's, and the line above asking again
+        page.close()
 
 
 @pytest.mark.browser
