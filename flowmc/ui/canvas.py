@@ -168,7 +168,7 @@ class Canvas:
         if low <= self.frame_edge <= high:
             return False
         self.frame_edge = max(draw.FRAME_EDGE, 1.2 / screen_px_per_world)
-        if self.boxes:
+        if "frame" in self._handles:  # drawn already (else the next drawing uses the new width)
             with self.lock, self.server.atomic():
                 self._draw_shapes()
         return True
