@@ -26,6 +26,9 @@ smooth their own edges, labels read the same and boxes are axis-aligned (their f
 The page asks WebGL for its renderer once (``_PROBE``, the context then released) and viser's software
 check reads that answer instead of making a throw-away context of its own.
 
+A folded folder's contents are built when it is first unfolded, then kept (``_FOLDER_STATE``, ``_FOLDER_BODY``):
+viser builds them at once, hidden, and the folded Machine section alone was about 550 of a page's elements.
+
 If the installed viser's page does not have the shape this expects, ``files()`` is None and viser
 serves its own page, as before (slower, nothing else changes); tests/ui/test_viser_client.py fails then.
 """
@@ -70,9 +73,17 @@ _VISER_PROBE = ("function tfe(){let e=document.createElement(`canvas`),t=!1,n=`u
                 "rendering detection skipped.`)}else i||(t=!1);return{supported:t,renderer:n,vendor:r,"
                 "contextCreationFailed:i}}")
 _ANTIALIAS = "powerPreference:`high-performance`,antialias:!0,alpha:!0}"
+# A folder's contents are built the first time it is unfolded (then kept): viser mounts a folded folder's
+# contents hidden, and the folded Machine section alone is about 550 elements the page built at every open.
+_FOLDER_STATE = "d=a.useGuiConfig(i??``,e=>i==null?null:e?.type??null);return n?t===null?"
+_FOLDER_BODY = ("children:(0,Y.jsx)(Q,{pt:`0.2em`,children:(0,Y.jsx)(hz.Provider,{value:{...l,folderDepth:"
+                "l.folderDepth+1},children:(0,Y.jsx)(l.GuiContainer,{containerUuid:e})})})")
 _SUBSTITUTIONS = ((_DEFAULT_START, _PLAIN_START),
                   (_VISER_PROBE, "function tfe(){return globalThis.__flowmcWebGL()}"),
-                  (_ANTIALIAS, "powerPreference:`high-performance`,antialias:!globalThis.__flowmcWebGL().software,alpha:!0}"))
+                  (_ANTIALIAS, "powerPreference:`high-performance`,antialias:!globalThis.__flowmcWebGL().software,alpha:!0}"),
+                  (_FOLDER_STATE, "d=a.useGuiConfig(i??``,e=>i==null?null:e?.type??null),f=b.useRef(!1);"
+                                  "o&&!u&&(f.current=!0);return n?t===null?"),
+                  (_FOLDER_BODY, "children:f.current?" + _FOLDER_BODY[len("children:"):] + ":null"))
 # The page's probe, answered once: viser's fields (supported, renderer, vendor, contextCreationFailed) and
 # ``software`` by viser's own test of the renderer's name.
 _PROBE = """globalThis.__flowmcWebGL = () => globalThis.__flowmcGL ??= (() => {

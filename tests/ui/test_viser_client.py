@@ -41,6 +41,7 @@ def test_the_installed_viser_client_unpacks_and_starts_plain():
     assert viser_client._PLAIN_START in script and viser_client._DEFAULT_START not in script
     assert viser_client._VISER_PROBE not in script and viser_client._ANTIALIAS not in script
     assert "antialias:!globalThis.__flowmcWebGL().software" in script
+    assert viser_client._FOLDER_STATE not in script and viser_client._FOLDER_BODY not in script
     assert "createRoot" in script and len(script) > 1_000_000
     assert client.assets["zstd.wasm"].body[:4] == b"\0asm"
     assert gzip.decompress(client.assets["app.js"].gzipped) == client.assets["app.js"].body
@@ -103,6 +104,33 @@ def test_software_webgl_is_probed_once_and_the_canvas_is_not_multisampled(editor
         assert probe["software"] is True and probe["supported"] is True and "SwiftShader" in probe["renderer"]
         assert page.evaluate("window.__viserMutable.canvas.getContext('webgl2').getContextAttributes().antialias") is False
         assert page.evaluate("window.__contexts") == 3  # the probe, the renderer's, and the line above asking again
+        page.close()
+
+
+@pytest.mark.browser
+def test_a_folded_folder_is_built_when_first_unfolded_then_kept(editor):
+    """The folded Machine section is not in the page at open (E-STOP, outside it, is); unfolded, it shows what the
+    server holds now (a value changed while it was folded), and folding it again keeps the same elements."""
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        ui.open(timeout=60)
+        page = ui.page
+        assert page.get_by_role("button", name="E-STOP").is_visible()
+        assert page.get_by_text("Start options", exact=True).count() == 0
+        assert page.get_by_role("button", name="Start", exact=True).count() == 0
+        editor.job_panel.feed.value = 150
+        page.get_by_text("Machine", exact=True).first.click()
+        start = page.get_by_role("button", name="Start", exact=True)
+        start.wait_for(state="visible", timeout=10000)
+        assert start.is_enabled() and page.get_by_text("Start options", exact=True).count() == 1
+        feed = ui.field("Feed %")
+        assert feed.input_value() == "150"
+        start.evaluate("e => { e.__kept = true; }")
+        page.get_by_text("Machine", exact=True).first.click()
+        start.wait_for(state="hidden", timeout=10000)
+        page.get_by_text("Machine", exact=True).first.click()
+        start.wait_for(state="visible", timeout=10000)
+        assert start.evaluate("e => e.__kept === true")
         page.close()
 
 
