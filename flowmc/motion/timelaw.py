@@ -20,13 +20,16 @@ whatever the speed below the cap. With caps and budgets fixed, the fastest profi
 of a cumulative sum: fully vectorised. Which cap to use where is settled by iteration: the scans
 with budgets taken at the speed of a given profile form an antitone map, so its iterates alternate
 around its fixed point; every second iterate used budgets taken at a faster profile and is
-therefore feasible, and they increase towards the fixed point (within about 1 % of TOPP-RA on the
-same curve in benchmarks/planning.py). Without a jerk limit the law is also planned with each axis's
-normal term counted with its sign where it helps (T_i a and K_i v^2 of opposite signs: the tool slowing
-into a turn on the axis the turn speeds up), at the least speed the interval may have: TOPP-RA's
-per-interval constraints, linear in (a, v^2), taken as budgets between a low and a high profile
-(``_profile_signed``), and once more with the caps a little lower (``_RHO_LOWER``: a cap leaves a budget at it
-only as far as it lies below what the normal terms allow); the fastest of the plans is kept.
+therefore feasible, and they increase towards the fixed point. That is how the jerk-limited law is
+planned. Without a jerk limit no iteration is needed: each axis's budget on an interval is linear in the
+speeds^2 at its ends (the normal term that hurts taken at the larger, one that helps at the smaller: T_i a
+and K_i v^2 of opposite signs, the tool slowing into a turn on the axis the turn speeds up; TOPP-RA's
+per-interval constraints, linear in (a, v^2)), so the largest speed^2 a node may have given the next one's
+is an affine map per axis, and the fastest profile that keeps every interval's budgets at its own speeds
+is one backward and one forward pass of y_k = min(cap_k, min_i(a_ik y_{k+1} + b_ik)), solved exactly
+(``_greatest``, flowmc.motion.capped_recursion). Any profile the iteration gives keeps those budgets too,
+so this one is at least as fast at every node; so is it than any planned with the caps lower (a profile
+under lower caps keeps the same budgets under these).
 
 Jerk (``jerk=True``). The profile above, with its budget shared with the jerk terms, is filtered by
 a moving average of length Tj = 2 max_i(amax_i / jmax_i) over the arc length: s_f(t) = (1/Tj) times
@@ -52,6 +55,7 @@ from functools import cached_property
 import numpy as np
 
 from flowmc.errors import PlanningError
+from flowmc.motion.capped_recursion import descend
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
@@ -61,10 +65,6 @@ __all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "arc_l
            "frame"]
 
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
-_RHO_LOWER = (0.995,)  # without a jerk limit, the signed law is also planned with caps at these shares (the fastest
-# is kept): at 0.999 the tangential budget left at the cap is a thousandth of amax, so where a fitted sharp corner's
-# curvature rises and falls steeply the speed cannot follow the cap and is held lower for longer (3D_Chips 0.14 %,
-# flowsnake 2 % quicker)
 _ROUNDS = 20
 _REACH_PROFILE_ROUNDS = 4
 _CONVERGED = 2e-3  # stop when the feasible profile is within this share of the top speed^2 of the one above
@@ -249,23 +249,28 @@ class _Geometry:
 
     t: np.ndarray
     k: np.ndarray
-    p3: np.ndarray
+    p3: np.ndarray | None  # None for laws without a jerk limit, which do not need it
     kt: np.ndarray
 
 
-def frame(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Tangent T, curvature vector K and P3 = d3p/ds3 by arc length at u (each (n, 3)), and ds/du there."""
-    d1, d2, d3 = curve.evaluate(u, 3, index=index, lowest=1)
+def frame(curve: PlannedCurve, u: np.ndarray, index: np.ndarray, third: bool = True) -> tuple:
+    """Tangent T, curvature vector K and P3 = d3p/ds3 by arc length at u (each (n, 3); P3 None unless
+    ``third``), and ds/du there."""
+    d = curve.evaluate(u, 3 if third else 2, index=index, lowest=1)
+    d1, d2 = d[0], d[1]
     sp = np.maximum(np.linalg.norm(d1, axis=1), 1e-300)
     tan = d1 / sp[:, None]
     sp1 = np.einsum("ij,ij->i", d1, d2) / sp  # d|p'|/du
-    sp2 = (np.einsum("ij,ij->i", d2, d2) + np.einsum("ij,ij->i", d1, d3)) / sp - sp1**2 / sp
     kv = (d2 - sp1[:, None] * tan) / sp[:, None] ** 2
+    if not third:
+        return tan, kv, None, sp
+    d3 = d[2]
+    sp2 = (np.einsum("ij,ij->i", d2, d2) + np.einsum("ij,ij->i", d1, d3)) / sp - sp1**2 / sp
     p3 = (d3 - 3.0 * (sp * sp1)[:, None] * kv - sp2[:, None] * tan) / sp[:, None] ** 3
     return tan, kv, p3, sp
 
 
-def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tuple[np.ndarray, ...]:
+def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, third: bool) -> tuple:
     """``frame`` at every grid interval's start, middle and end (rows in that order), on its curve interval
     ``k_iv``; an end is the next interval's start where both lie on one curve interval, so it is taken from
     there rather than worked out again (the same arithmetic on the same numbers)."""
@@ -274,9 +279,13 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tup
     pts = np.concatenate([u[:-1], 0.5 * (u[:-1] + u[1:]), u[1:][own]])
     index = np.concatenate([k_iv, k_iv, k_iv[own]])
     step = CHUNK if len(pts) > CHUNKED else len(pts)  # in cache
-    chunks = [frame(curve, pts[i:i + step], index[i:i + step]) for i in range(0, len(pts), step)]
-    out = []
-    for a in (np.concatenate(p, axis=0) for p in zip(*chunks)):
+    chunks = [frame(curve, pts[i:i + step], index[i:i + step], third) for i in range(0, len(pts), step)]
+    out: list[np.ndarray | None] = []
+    for p in zip(*chunks):
+        if p[0] is None:
+            out.append(None)
+            continue
+        a = np.concatenate(p, axis=0)
         whole = np.empty_like(a, shape=(3 * m, *a.shape[1:]))  # in a's layout: frame's are by axis
         whole[:2 * m] = a[:2 * m]
         whole[2 * m:3 * m - 1] = a[1:m]
@@ -285,13 +294,14 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray) -> tup
     return tuple(out)
 
 
-def _geometry(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, cols) -> tuple[_Geometry, np.ndarray]:
+def _geometry(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, cols, third: bool) -> tuple[_Geometry, np.ndarray]:
     """Geometric derivatives at every grid interval's start, middle and end (``_interval_frame``), and ds/du
-    there."""
-    tan, kv, p3, sp = _interval_frame(curve, u, k_iv)
+    there; P3 only if ``third``."""
+    tan, kv, p3, sp = _interval_frame(curve, u, k_iv, third)
     mask = np.zeros(3)
     mask[list(cols)] = 1.0
-    return _Geometry(np.abs(tan) * mask, np.abs(kv) * mask, np.abs(p3) * mask, np.sign(tan) * kv * mask), sp
+    return _Geometry(np.abs(tan) * mask, np.abs(kv) * mask, None if p3 is None else np.abs(p3) * mask,
+                     np.sign(tan) * kv * mask), sp
 
 
 def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -301,8 +311,9 @@ def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[
         y_vel = np.minimum(y_vel, feed**2)
         y_acc = np.min(np.where(g.k > 0, lim.amax / np.where(g.k > 0, g.k, 1.0), np.inf), axis=1)
         if jerk:
-            j = _JERK_SHARE * lim.jmax
-            y_jerk = np.min(np.where(g.p3 > 0, (j / np.where(g.p3 > 0, g.p3, 1.0)) ** (2.0 / 3.0), np.inf), axis=1)
+            j, p3 = _JERK_SHARE * lim.jmax, g.p3
+            assert p3 is not None, "jerk-limited geometry has P3"
+            y_jerk = np.min(np.where(p3 > 0, (j / np.where(p3 > 0, p3, 1.0)) ** (2.0 / 3.0), np.inf), axis=1)
             y_acc = np.minimum(y_acc, y_jerk)
     return y_vel, y_acc
 
@@ -312,7 +323,7 @@ class _Budgets:
 
     Acceleration, per axis: -amax_i <= T_i a + K_i y <= amax_i, so a speed-up may use
     (amax_i - sign(T_i) K_i y) / |T_i| and a slow-down (amax_i + sign(T_i) K_i y) / |T_i|, at their worst
-    over 0 <= y <= Y, or over least <= y <= Y where the least speed^2 is given. Jerk, when filtered over
+    over 0 <= y <= Y (``__call__``), or over the speeds^2 at the interval's ends (``maps``). Jerk, when filtered over
     Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share * jmax_i, with J the largest jump of the
     acceleration within Tj (the budget, or twice it). Each axis takes the worst of every term over the
     interval's three points (conservative, and three columns instead of nine).
@@ -322,7 +333,8 @@ class _Budgets:
         def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,), column by column
             return [np.max(a[:, i].reshape(3, m), axis=0) for i in range(3)]
 
-        t, k, p3 = worst(g.t), worst(g.k), worst(g.p3)
+        t, k = worst(g.t), worst(g.k)
+        p3 = None if g.p3 is None else worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
         # the normal term helps on an axis where it has the same sign at all three points (its least help)
         help_up, help_down = worst(g.kt), worst(-g.kt)
@@ -330,7 +342,7 @@ class _Budgets:
         # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
         self.axes = []
         for i in range(3):
-            if not (t[i].any() or k[i].any() or p3[i].any()):
+            if not (t[i].any() or k[i].any() or (p3 is not None and p3[i].any())):
                 continue
             moving = t[i] > 0
             inv_t = np.where(moving, 1.0 / np.where(moving, t[i], 1.0), 0.0)
@@ -338,24 +350,38 @@ class _Budgets:
                    "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t,
                    "gamma_up": np.maximum(-help_up[i], 0.0) * inv_t,
                    "gamma_down": np.maximum(-help_down[i], 0.0) * inv_t}
-            if window > 0:
+            if window > 0 and p3 is not None:
                 row.update(jmax=_JERK_SHARE * lim.jmax[i], t_win=t[i] / window, k3=3.0 * k[i], p3=p3[i])
             self.axes.append(row)
 
-    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None,
-                 least: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Budgets at speed^2 ``level``; where ``swing``, safe for any swing of the acceleration (a jump of
-        up to twice the budget within Tj), elsewhere for jumps of up to the budget. ``least`` (without a jerk
-        limit only): the speed^2 is at least this on the interval, so a normal term that helps counts that
-        much (else it counts as at rest). Worked out CHUNK intervals at a time past CHUNKED (``_parts``)."""
+    def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Budgets at speed^2 ``level`` (normal terms that help counted as at rest); where ``swing``, safe for
+        any swing of the acceleration (a jump of up to twice the budget within Tj), elsewhere for jumps of up
+        to the budget. Worked out CHUNK intervals at a time past CHUNKED (``_parts``)."""
         n = len(level)
         if n <= CHUNKED or not self.axes:
-            return self._budgets(level, swing, least)
+            return self._budgets(level, swing)
         up, down = np.empty(n), np.empty(n)
         for part, at in self._parts:
-            up[at], down[at] = part._budgets(level[at], None if swing is None else swing[at],
-                                             None if least is None else least[at])
+            up[at], down[at] = part._budgets(level[at], None if swing is None else swing[at])
         return up, down
+
+    def maps(self, ds: np.ndarray) -> tuple[tuple[list, list], tuple[list, list]]:
+        """Without a jerk limit: per axis, the largest speed^2 x' one end of each interval may have given the
+        speed^2 x at its other end, a x + b, for slowing down (x the later end's) and for speeding up (x the
+        earlier end's). Slowing down from y to x on axis i takes y - x <= 2 ds (alpha - beta y + gamma x): the
+        hurting normal term at the larger speed, the helping one at the smaller; solved for y, that is
+        y <= ((1 + 2 ds gamma) x + 2 ds alpha) / (1 + 2 ds beta). An axis that does not move has b = inf."""
+        h = 2.0 * ds
+        out = []
+        for key in ("down", "up"):
+            a, b = [], []
+            for row in self.axes:
+                den = 1.0 + h * row["beta_" + key]
+                a.append((1.0 + h * row["gamma_" + key]) / den)
+                b.append(h * row["alpha"] / den)
+            out.append((a, b))
+        return out[0], out[1]
 
     @cached_property
     def _parts(self) -> list[tuple[_Budgets, slice]]:
@@ -371,7 +397,7 @@ class _Budgets:
             parts.append((part, at))
         return parts
 
-    def _budgets(self, level: np.ndarray, swing: np.ndarray | None, least: np.ndarray | None):
+    def _budgets(self, level: np.ndarray, swing: np.ndarray | None):
         y = level
         up = np.full(len(y), np.inf)
         down = np.full(len(y), np.inf)
@@ -381,12 +407,8 @@ class _Budgets:
                 y_root = y * root
                 widen = None if swing is None else 1.0 + swing
             for row in self.axes:
-                if least is None or self.window > 0:
-                    np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
-                    np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
-                else:
-                    np.minimum(up, row["alpha"] - row["beta_up"] * y + row["gamma_up"] * least, out=up)
-                    np.minimum(down, row["alpha"] - row["beta_down"] * y + row["gamma_down"] * least, out=down)
+                np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
+                np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
                 if self.window > 0:
                     t_win = row["t_win"] if widen is None else row["t_win"] * widen
                     coeff = t_win + row["k3"] * root
@@ -427,37 +449,16 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     return low, budget
 
 
-def _profile_signed(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
-                    rounds: int = 12) -> tuple[np.ndarray, np.ndarray]:
-    """``_profile`` with normal terms that help counted at the least speed^2 the interval may have
-    (``_Budgets`` with ``least``): the time law TOPP-RA's per-interval constraints a_i = T_i a + K_i v^2
-    allow, where the tool slows down on an axis whose normal term pulls the other way (Pham and Pham 2018).
-
-    A budget then falls with the speed its hurting terms are taken at and grows with the speed its helping
-    terms are taken at. Two profiles go on from low = 0 and a high planned with every hurting term at rest
-    and every helping one at the cap: the next high takes both at the low, capped by the high before; the
-    next low takes hurting terms at that high and helping ones at the low before, capped by the high. So
-    lows rise and highs fall, each low lies between the low before and its high, and its budgets hold for
-    every speed it has on every interval: each low is feasible. It starts further from the fixed point
-    than ``_profile`` and may end slower (star10, 3dtest), so the caller keeps the faster of the two."""
-    def levels(y):
-        return np.minimum(cap, np.maximum(y[:-1], y[1:])), np.minimum(cap, np.minimum(y[:-1], y[1:]))
-
+def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budgets) -> np.ndarray:
+    """Without a jerk limit: the fastest profile each interval of which keeps its budgets at its own speeds,
+    the normal terms that help counted at the smaller end's speed (``_Budgets.maps``): one backward pass for
+    the largest speed^2 from which the tool can still slow down to every cap ahead, one forward pass for the
+    largest it can speed up to, each solved exactly (flowmc.motion.capped_recursion)."""
     node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
     node_cap[stops] = 0.0
-    high = _scan(node_cap, ds, budget_of(np.zeros_like(cap), least=cap))
-    low = np.zeros_like(node_cap)
-    budget = None
-    for _ in range(rounds):
-        least = levels(low)[1]
-        budget = budget_of(levels(high)[0], least=least)
-        low = _scan(np.minimum(node_cap, high), ds, budget)
-        if _converged(high, low):
-            break
-        most, least = levels(low)
-        high = _scan(np.minimum(node_cap, high), ds, budget_of(most, least=least))
-    assert budget is not None, "at least one round"
-    return low, budget
+    down, up = budgets.maps(ds)
+    reach = descend(node_cap, *down)[::-1]
+    return descend(reach, [a[::-1] for a in up[0]], [b[::-1] for b in up[1]], guess=reach)[::-1]
 
 
 def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
@@ -481,7 +482,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     d1 = curve.evaluate(gl_u.ravel(), 1, index=np.repeat(k_iv, len(_GL3_X)), lowest=1)[0]
     ds = 0.5 * du * (np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(m, -1) @ _GL3_W)
     s = np.concatenate([[0.0], np.cumsum(ds)])
-    geo, sp = _geometry(curve, u, k_iv, lim.cols)
+    geo, sp = _geometry(curve, u, k_iv, lim.cols, third=jerk)
     speed_u = np.r_[sp[:m], sp[-1]]
     feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
@@ -489,10 +490,7 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     cap = np.minimum(y_vel, _RHO * y_acc)
     stops = np.searchsorted(u, stop_u)
     if not jerk:
-        budget_of = _Budgets(geo, m, lim, 0.0)
-        y = min((_profile(cap, stops, ds, budget_of)[0], _profile_signed(cap, stops, ds, budget_of)[0],
-                 *(_profile_signed(np.minimum(y_vel, rho * y_acc), stops, ds, budget_of)[0] for rho in _RHO_LOWER)),
-                key=lambda profile: float(_node_times(profile, ds)[-1]))
+        y = _greatest(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
         window = 0.0
     else:
         y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
