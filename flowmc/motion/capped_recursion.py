@@ -13,7 +13,8 @@ pass is this recursion. It is sequential; numpy runs it block by block instead:
 2. Every block is run again from those inputs with every axis's map (exact, given its input), and each
    block's input is lowered to what the block after it now gives; the binding axes are taken again at the
    new values, and step 1's bound of them kept where lower. Inputs only fall, and stop within rounding once
-   every block agrees with the next (two to four rounds on the benchmark programs).
+   every block agrees with the next (two to four rounds on the benchmark programs); after the first round
+   only blocks whose input fell are run again (3D_Chips: 61, then 3 of 3,900 blocks backward).
 """
 
 from __future__ import annotations
@@ -44,15 +45,25 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
     at = c_blk if guess is None else _blocks(guess[:n], np.inf)
     x_in = np.r_[at[0, 1:], end]  # the value after each block's last step: the next block's first
     maps = _sweep(c_blk, a_blk, b_blk, x_in, at)[1]
+    y_blk = ran = None
     for _ in range(_ROUNDS):
         first = _chain(maps[0], maps[1], maps[2], end)
         x_in = np.minimum(x_in, np.r_[first[1:], end])  # both are upper bounds of the solution
-        y_blk, maps = _sweep(c_blk, a_blk, b_blk, x_in)
+        if y_blk is None or ran is None:
+            y_blk, maps = _sweep(c_blk, a_blk, b_blk, x_in)
+        else:  # a block run again from the same input gives the same values and map: only the others are
+            again = np.flatnonzero(x_in != ran)
+            y_blk[:, again], part = _sweep(c_blk[:, again], [v[:, again] for v in a_blk],
+                                           [v[:, again] for v in b_blk], x_in[again])
+            for whole, new_part in zip(maps, part):
+                whole[again] = new_part
+        ran = x_in
         new_in = np.r_[y_blk[0, 1:], end]  # what each block's input now is: the next block's first value
         settled = not np.any(new_in < x_in * (1.0 - _SETTLED))
         x_in = new_in
         if settled:
             break
+    assert y_blk is not None, "at least one round"
     return np.r_[y_blk.T.reshape(-1)[:n], end]
 
 
@@ -84,10 +95,14 @@ def _sweep(c_blk, a_blk, b_blk, x_in, at=None):
 
 def _blocks(v: np.ndarray, fill: float) -> np.ndarray:
     """v padded to whole blocks, as (step, block): each row one step of every block."""
-    nb = -(-len(v) // _BLOCK)
-    out = np.full(nb * _BLOCK, fill)
-    out[:len(v)] = v
-    return out.reshape(nb, _BLOCK).T.copy()
+    n = len(v)
+    whole, rest = divmod(n, _BLOCK)
+    out = np.empty((_BLOCK, whole + (rest > 0)))
+    out[:, :whole] = v[:whole * _BLOCK].reshape(whole, _BLOCK).T  # written in place: one fresh array, not two
+    if rest:
+        out[:rest, whole] = v[whole * _BLOCK:]
+        out[rest:, whole] = fill
+    return out
 
 
 def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarray:
