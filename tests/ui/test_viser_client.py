@@ -5,6 +5,7 @@ viser's default lights and HDRI environment (which flowmc's scenes never use). A
 from __future__ import annotations
 
 import gzip
+import time
 import urllib.error
 import urllib.request
 
@@ -132,6 +133,48 @@ def test_a_folded_folder_is_built_when_first_unfolded_then_kept(editor):
         start.wait_for(state="visible", timeout=10000)
         assert start.evaluate("e => e.__kept === true")
         page.close()
+
+
+_WORKERS = """(() => { const W = window.Worker; window.__workers = [];
+    window.Worker = function (url, options) { window.__workers.push({url: String(url), clientStarted: !!document.getElementById('root')?.hasChildNodes()});
+      return new W(url, options); }; window.Worker.prototype = W.prototype; })()"""
+
+
+@pytest.mark.browser
+def test_the_page_opens_the_websocket_before_the_client_starts_and_the_client_takes_it(editor):
+    """The page starts viser's socket worker before the client's script has run; the client takes that worker and
+    the messages it held (the page opens as before) instead of opening a second connection."""
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        ui.page.add_init_script(_WORKERS)
+        errors: list[str] = []
+        ui.page.on("pageerror", lambda e: errors.append(str(e)))
+        ui.open(timeout=60)
+        workers = ui.page.evaluate("window.__workers")
+        assert [w["url"].partition("?")[0] for w in workers] == [f"{viser_client.PREFIX}socket.js"]
+        assert workers[0]["clientStarted"] is False
+        assert ui.page.evaluate("globalThis.__flowmcSocket") is None  # taken by the client
+        assert len(editor.server.get_clients()) == 1 and errors == []
+        ui.page.close()
+
+
+@pytest.mark.browser
+def test_an_early_socket_for_another_address_is_closed_and_the_client_opens_its_own(editor):
+    """Where the page's socket is not for the server the client picks (here made so: its address is changed as the
+    page stores it), the client closes it and connects itself, as viser's client does without the page's socket."""
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        ui.page.add_init_script(_WORKERS)
+        ui.page.add_init_script("""Object.defineProperty(globalThis, "__flowmcSocket", {configurable: true,
+            get() { return this.__kept; }, set(v) { if (v) v.server = "ws://127.0.0.1:9/elsewhere"; this.__kept = v; }})""")
+        ui.open(timeout=60)
+        workers = ui.page.evaluate("window.__workers")
+        assert len(workers) == 2 and workers[1]["url"].startswith("blob:") and workers[1]["clientStarted"] is True
+        deadline = time.monotonic() + 10
+        while len(editor.server.get_clients()) != 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert len(editor.server.get_clients()) == 1
+        ui.page.close()
 
 
 @pytest.mark.browser
