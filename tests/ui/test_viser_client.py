@@ -159,6 +159,29 @@ def test_the_page_opens_the_websocket_before_the_client_starts_and_the_client_ta
 
 
 @pytest.mark.browser
+def test_the_server_greets_the_page_before_the_client_reports_its_camera(editor):
+    """viser runs its connect callbacks (here the editor's camera lock) once a page reports its camera: the page reports
+    the client's first camera itself as it connects, so the lock comes with the first messages, before the client's
+    own report (made once its scene has mounted)."""
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        ui.page.add_init_script("""(() => { window.__events = []; const post = Worker.prototype.postMessage;
+            Worker.prototype.postMessage = function (m, ...rest) {
+              if (m?.type === "send" && m.message.type === "ViewerCameraMessage") window.__events.push(
+                document.getElementById("root").hasChildNodes() ? "client camera" : "page camera");
+              return post.call(this, m, ...rest); };
+            const W = window.Worker; window.Worker = function (...a) { const w = new W(...a);
+              w.addEventListener("message", e => { if (e.data.type === "message_batch" && e.data.messages.some(
+                m => m.type === "RunJavascriptMessage" && m.source.includes("flowmcLockCamera"))) window.__events.push("lock"); });
+              return w; }; window.Worker.prototype = W.prototype; })()""")
+        ui.open(timeout=60)
+        events = ui.page.evaluate("window.__events")
+        assert events[:2] == ["page camera", "lock"] and events.count("page camera") == 1, events
+        assert "client camera" in events[2:], events
+        ui.page.close()
+
+
+@pytest.mark.browser
 def test_an_early_socket_for_another_address_is_closed_and_the_client_opens_its_own(editor):
     """Where the page's socket is not for the server the client picks (here made so: its address is changed as the
     page stores it), the client closes it and connects itself, as viser's client does without the page's socket."""
