@@ -29,6 +29,11 @@ check reads that answer instead of making a throw-away context of its own.
 A folded folder's contents are built when it is first unfolded, then kept (``_FOLDER_STATE``, ``_FOLDER_BODY``):
 viser builds them at once, hidden, and the folded Machine section alone was about 550 of a page's elements.
 
+The page opens the websocket as it starts, in viser's own socket worker (served as ``socket.js``), and reports the
+client's first camera on it (``_EARLY_SOCKET``): viser's client would open it only after React mounted, and viser's
+server runs its connect callbacks (the editor's framing and camera lock) only once a camera is reported, so the lock
+came a frame after the first drawing. The client takes the page's worker and the messages it held (``_SOCKET_MAKE``).
+
 If the installed viser's page does not have the shape this expects, ``files()`` is None and viser
 serves its own page, as before (slower, nothing else changes); tests/ui/test_viser_client.py fails then.
 """

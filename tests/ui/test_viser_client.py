@@ -45,6 +45,8 @@ def test_the_installed_viser_client_unpacks_and_starts_plain():
     assert viser_client._FOLDER_STATE not in script and viser_client._FOLDER_BODY not in script
     assert "createRoot" in script and len(script) > 1_000_000
     assert client.assets["zstd.wasm"].body[:4] == b"\0asm"
+    assert viser_client._SOCKET_MAKE not in script and viser_client._SOCKET_START not in script
+    assert "new WebSocket(" in client.assets["socket.js"].body.decode()
     assert gzip.decompress(client.assets["app.js"].gzipped) == client.assets["app.js"].body
     assert ".mantine-" in client.css and "<title>" in client.head
 
@@ -64,6 +66,10 @@ def test_the_page_and_its_files_are_served_behind_the_guard(editor):
     assert f"app.js?v={digest}&" in page and headers["ETag"] == f'W/"{digest}"'
     status, headers, body = _get(f"{base}app.js?token={token}", {"If-None-Match": f'W/"{digest}"'})
     assert status == 304 and body == b"" and headers["Cache-Control"] == viser_client.CACHE
+    status, headers, body = _get(f"{base}socket.js?token={token}")
+    assert status == 200 and headers["Content-Type"].startswith("text/javascript") and b"new WebSocket(" in body
+    assert f"socket.js?v={viser_client.files().assets['socket.js'].digest}&" in page
+    assert _get(f"{base}socket.js")[0] == 403
     status, headers, body = _get(f"{base}zstd.wasm?token={token}")
     assert status == 200 and headers["Content-Type"] == "application/wasm" and body[:4] == b"\0asm"
     assert _get(f"{base}app.js")[0] == 403  # no token, no cookie
