@@ -129,7 +129,8 @@ _PROBE = """globalThis.__flowmcWebGL = () => globalThis.__flowmcGL ??= (() => {
 _EARLY_SOCKET = """const query = new URLSearchParams(location.search), named = query.getAll("websocket");
 const socket = query.has("playbackPath") ? null : globalThis.__flowmcSocket = {
   worker: new Worker(SOCKET_URL, {type: "module"}), held: [],
-  server: named.length ? named[0] : location.href.replace("http://", "ws://").replace("https://", "wss://").split("?")[0].replace(/\\/$/, "")};
+  server: named.length ? named[0]
+    : location.href.replace("http://", "ws://").replace("https://", "wss://").split("?")[0].replace(/\\/$/, "")};
 if (socket) {
   socket.worker.onmessage = event => {
     socket.held.push(event);

@@ -142,7 +142,8 @@ def test_a_folded_folder_is_built_when_first_unfolded_then_kept(editor):
 
 
 _WORKERS = """(() => { const W = window.Worker; window.__workers = [];
-    window.Worker = function (url, options) { window.__workers.push({url: String(url), clientStarted: !!document.getElementById('root')?.hasChildNodes()});
+    window.Worker = function (url, options) {
+      window.__workers.push({url: String(url), clientStarted: !!document.getElementById('root')?.hasChildNodes()});
       return new W(url, options); }; window.Worker.prototype = W.prototype; })()"""
 
 
@@ -178,7 +179,8 @@ def test_the_server_greets_the_page_before_the_client_reports_its_camera(editor)
               return post.call(this, m, ...rest); };
             const W = window.Worker; window.Worker = function (...a) { const w = new W(...a);
               w.addEventListener("message", e => { if (e.data.type === "message_batch" && e.data.messages.some(
-                m => m.type === "RunJavascriptMessage" && m.source.includes("flowmcLockCamera"))) window.__events.push("lock"); });
+                m => m.type === "RunJavascriptMessage" && m.source.includes("flowmcLockCamera"))) {
+                window.__events.push("lock"); } });
               return w; }; window.Worker.prototype = W.prototype; })()""")
         ui.open(timeout=60)
         events = ui.page.evaluate("window.__events")
