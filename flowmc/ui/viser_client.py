@@ -29,6 +29,11 @@ check reads that answer instead of making a throw-away context of its own.
 A folded folder's contents are built when it is first unfolded, then kept (``_FOLDER_STATE``, ``_FOLDER_BODY``):
 viser builds them at once, hidden, and the folded Machine section alone was about 550 of a page's elements.
 
+The page opens the websocket as it starts, in viser's own socket worker (served as ``socket.js``), and reports the
+client's first camera on it (``_EARLY_SOCKET``): viser's client would open it only after React mounted, and viser's
+server runs its connect callbacks (the editor's framing and camera lock) only once a camera is reported, so the lock
+came a frame after the first drawing. The client takes the page's worker and the messages it held (``_SOCKET_MAKE``).
+
 If the installed viser's page does not have the shape this expects, ``files()`` is None and viser
 serves its own page, as before (slower, nothing else changes); tests/ui/test_viser_client.py fails then.
 """
@@ -78,12 +83,24 @@ _ANTIALIAS = "powerPreference:`high-performance`,antialias:!0,alpha:!0}"
 _FOLDER_STATE = "d=a.useGuiConfig(i??``,e=>i==null?null:e?.type??null);return n?t===null?"
 _FOLDER_BODY = ("children:(0,Y.jsx)(Q,{pt:`0.2em`,children:(0,Y.jsx)(hz.Provider,{value:{...l,folderDepth:"
                 "l.folderDepth+1},children:(0,Y.jsx)(l.GuiContainer,{containerUuid:e})})})")
+# The websocket is opened by the page as it starts (``_EARLY_SOCKET``), in viser's own socket worker (its source,
+# ``_WORKER``, served as a file): viser's client opens it from React once the page has mounted, and the server's
+# first messages then wait for that. The client's effect takes the page's worker and the messages it has held, in
+# order, instead of starting one (or starts its own, as before, if the page's is for another server).
+_WORKER = re.compile(r"var f7='([^'\\]*)',p7=typeof self")
+_SOCKET_MAKE = ("let a=new Wle,o=!1,s=null;function c(e){a.postMessage(e)}let l=m7();l!==void 0&&"
+                "c({type:`zstd_wasm`,module:l});")
+_SOCKET_START = "},c({type:`set_server`,server:n}),()=>{"
 _SUBSTITUTIONS = ((_DEFAULT_START, _PLAIN_START),
                   (_VISER_PROBE, "function tfe(){return globalThis.__flowmcWebGL()}"),
                   (_ANTIALIAS, "powerPreference:`high-performance`,antialias:!globalThis.__flowmcWebGL().software,alpha:!0}"),
                   (_FOLDER_STATE, "d=a.useGuiConfig(i??``,e=>i==null?null:e?.type??null),f=b.useRef(!1);"
                                   "o&&!u&&(f.current=!0);return n?t===null?"),
-                  (_FOLDER_BODY, "children:f.current?" + _FOLDER_BODY[len("children:"):] + ":null"))
+                  (_FOLDER_BODY, "children:f.current?" + _FOLDER_BODY[len("children:"):] + ":null"),
+                  (_SOCKET_MAKE, "let F=globalThis.__flowmcSocket;globalThis.__flowmcSocket=null;F?.server!==n&&"
+                                 "(F?.worker.terminate(),F=null);let a=F?F.worker:new Wle,o=!1,s=null;function c(e){"
+                                 "a.postMessage(e)}let l=m7();!F&&l!==void 0&&c({type:`zstd_wasm`,module:l});"),
+                  (_SOCKET_START, "},F?F.held.splice(0).forEach(e=>a.onmessage(e)):c({type:`set_server`,server:n}),()=>{"))
 # The page's probe, answered once: viser's fields (supported, renderer, vendor, contextCreationFailed) and
 # ``software`` by viser's own test of the renderer's name.
 _PROBE = """globalThis.__flowmcWebGL = () => globalThis.__flowmcGL ??= (() => {
@@ -103,6 +120,27 @@ _PROBE = """globalThis.__flowmcWebGL = () => globalThis.__flowmcGL ??= (() => {
   }
   return out;
 })();"""
+
+# The page's socket (``_WORKER`` above), for the server viser's client would pick (``?websocket=``, else the page's own
+# address); its messages are held until the client takes them. A playback page (``?playbackPath=``) opens none.
+# viser's server runs its connect callbacks (flowmc's page script, framing, camera lock) only once a page has reported
+# its camera, which viser's client does once its scene has mounted: the page reports what the client's first report
+# says (viser's default camera, a canvas the window's size), so that those messages come with the first ones too.
+_EARLY_SOCKET = """const query = new URLSearchParams(location.search), named = query.getAll("websocket");
+const socket = query.has("playbackPath") ? null : globalThis.__flowmcSocket = {
+  worker: new Worker(SOCKET_URL, {type: "module"}), held: [],
+  server: named.length ? named[0]
+    : location.href.replace("http://", "ws://").replace("https://", "wss://").split("?")[0].replace(/\\/$/, "")};
+if (socket) {
+  socket.worker.onmessage = event => {
+    socket.held.push(event);
+    if (event.data.type === "connected" && socket.held.length === 1) socket.worker.postMessage({type: "send", message: {
+      type: "ViewerCameraMessage", wxyz: [-0.1759199, 0.3398511, 0.8204732, -0.4247082], position: [3, 3, 3],
+      image_height: Math.floor(innerHeight * devicePixelRatio), image_width: Math.floor(innerWidth * devicePixelRatio),
+      fov: 75 * Math.PI / 180, near: 0.01, far: 1000, look_at: [0, 0, 0], up_direction: [0, 0, 1]}});
+  };
+  socket.worker.postMessage({type: "set_server", server: socket.server});
+}"""
 
 
 class Asset(NamedTuple):
@@ -156,6 +194,9 @@ def files() -> ClientFiles | None:
         script = raw[styles:].decode("utf-8")
         if len(raw) != styles + scripts or any(script.count(old) != 1 for old, _new in _SUBSTITUTIONS):
             return None
+        workers = _WORKER.findall(script)
+        if len(workers) != 1 or "new WebSocket(" not in workers[0]:
+            return None
         for old, new in _SUBSTITUTIONS:
             script = script.replace(old, new)
         wasm = gzip.decompress(_base88(wasm_text.group(1).replace("\\\\", "\\")))
@@ -166,6 +207,7 @@ def files() -> ClientFiles | None:
     head = html[:found.start()].rstrip()
     return ClientFiles(head, raw[:styles].decode("utf-8"),
                        {"app.js": _asset("text/javascript; charset=utf-8", script.encode("utf-8")),
+                        "socket.js": _asset("text/javascript; charset=utf-8", workers[0].encode("utf-8")),
                         "zstd.wasm": _asset("application/wasm", wasm)})
 
 
@@ -176,9 +218,12 @@ def page(token: str) -> str | None:
     client = files()
     if client is None:
         return None
-    app, wasm = (f"{PREFIX}{name}?v={client.assets[name].digest}&token={token}" for name in ("app.js", "zstd.wasm"))
+    app, socket, wasm = (f"{PREFIX}{name}?v={client.assets[name].digest}&token={token}"
+                         for name in ("app.js", "socket.js", "zstd.wasm"))
+    early = _EARLY_SOCKET.replace("SOCKET_URL", f'"{socket}"')
     return (f'{client.head}\n<style>{client.css}</style>\n<link rel="modulepreload" href="{app}" />\n<script>{_PROBE}</script>\n'
-            f'<script type="module">globalThis.__viserZstdWasm = await WebAssembly.compileStreaming(fetch("{wasm}"));\n'
+            f'<script type="module">{early}\nglobalThis.__viserZstdWasm = await WebAssembly.compileStreaming(fetch("{wasm}"));\n'
+            f'socket?.worker.postMessage({{type: "zstd_wasm", module: globalThis.__viserZstdWasm}});\n'
             f'await import("{app}");</script>\n</head>\n<body>\n<noscript>You need to enable JavaScript to run this app.'
             f'</noscript>\n<div id="root"></div>\n</body>\n</html>\n')
 

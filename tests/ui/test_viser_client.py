@@ -5,6 +5,7 @@ viser's default lights and HDRI environment (which flowmc's scenes never use). A
 from __future__ import annotations
 
 import gzip
+import time
 import urllib.error
 import urllib.request
 
@@ -44,6 +45,8 @@ def test_the_installed_viser_client_unpacks_and_starts_plain():
     assert viser_client._FOLDER_STATE not in script and viser_client._FOLDER_BODY not in script
     assert "createRoot" in script and len(script) > 1_000_000
     assert client.assets["zstd.wasm"].body[:4] == b"\0asm"
+    assert viser_client._SOCKET_MAKE not in script and viser_client._SOCKET_START not in script
+    assert "new WebSocket(" in client.assets["socket.js"].body.decode()
     assert gzip.decompress(client.assets["app.js"].gzipped) == client.assets["app.js"].body
     assert ".mantine-" in client.css and "<title>" in client.head
 
@@ -63,6 +66,10 @@ def test_the_page_and_its_files_are_served_behind_the_guard(editor):
     assert f"app.js?v={digest}&" in page and headers["ETag"] == f'W/"{digest}"'
     status, headers, body = _get(f"{base}app.js?token={token}", {"If-None-Match": f'W/"{digest}"'})
     assert status == 304 and body == b"" and headers["Cache-Control"] == viser_client.CACHE
+    status, headers, body = _get(f"{base}socket.js?token={token}")
+    assert status == 200 and headers["Content-Type"].startswith("text/javascript") and b"new WebSocket(" in body
+    assert f"socket.js?v={viser_client.files().assets['socket.js'].digest}&" in page
+    assert _get(f"{base}socket.js")[0] == 403
     status, headers, body = _get(f"{base}zstd.wasm?token={token}")
     assert status == 200 and headers["Content-Type"] == "application/wasm" and body[:4] == b"\0asm"
     assert _get(f"{base}app.js")[0] == 403  # no token, no cookie
@@ -132,6 +139,73 @@ def test_a_folded_folder_is_built_when_first_unfolded_then_kept(editor):
         start.wait_for(state="visible", timeout=10000)
         assert start.evaluate("e => e.__kept === true")
         page.close()
+
+
+_WORKERS = """(() => { const W = window.Worker; window.__workers = [];
+    window.Worker = function (url, options) {
+      window.__workers.push({url: String(url), clientStarted: !!document.getElementById('root')?.hasChildNodes()});
+      return new W(url, options); }; window.Worker.prototype = W.prototype; })()"""
+
+
+@pytest.mark.browser
+def test_the_page_opens_the_websocket_before_the_client_starts_and_the_client_takes_it(editor):
+    """The page starts viser's socket worker before the client's script has run; the client takes that worker and
+    the messages it held (the page opens as before) instead of opening a second connection."""
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        ui.page.add_init_script(_WORKERS)
+        errors: list[str] = []
+        ui.page.on("pageerror", lambda e: errors.append(str(e)))
+        ui.open(timeout=60)
+        workers = ui.page.evaluate("window.__workers")
+        assert [w["url"].partition("?")[0] for w in workers] == [f"{viser_client.PREFIX}socket.js"]
+        assert workers[0]["clientStarted"] is False
+        assert ui.page.evaluate("globalThis.__flowmcSocket") is None  # taken by the client
+        assert len(editor.server.get_clients()) == 1 and errors == []
+        ui.page.close()
+
+
+@pytest.mark.browser
+def test_the_server_greets_the_page_before_the_client_reports_its_camera(editor):
+    """viser runs its connect callbacks (here the editor's camera lock) once a page reports its camera: the page reports
+    the client's first camera itself as it connects, so the lock comes with the first messages, before the client's
+    own report (made once its scene has mounted)."""
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        ui.page.add_init_script("""(() => { window.__events = []; const post = Worker.prototype.postMessage;
+            Worker.prototype.postMessage = function (m, ...rest) {
+              if (m?.type === "send" && m.message.type === "ViewerCameraMessage") window.__events.push(
+                document.getElementById("root").hasChildNodes() ? "client camera" : "page camera");
+              return post.call(this, m, ...rest); };
+            const W = window.Worker; window.Worker = function (...a) { const w = new W(...a);
+              w.addEventListener("message", e => { if (e.data.type === "message_batch" && e.data.messages.some(
+                m => m.type === "RunJavascriptMessage" && m.source.includes("flowmcLockCamera"))) {
+                window.__events.push("lock"); } });
+              return w; }; window.Worker.prototype = W.prototype; })()""")
+        ui.open(timeout=60)
+        events = ui.page.evaluate("window.__events")
+        assert events[:2] == ["page camera", "lock"] and events.count("page camera") == 1, events
+        assert "client camera" in events[2:], events
+        ui.page.close()
+
+
+@pytest.mark.browser
+def test_an_early_socket_for_another_address_is_closed_and_the_client_opens_its_own(editor):
+    """Where the page's socket is not for the server the client picks (here made so: its address is changed as the
+    page stores it), the client closes it and connects itself, as viser's client does without the page's socket."""
+    with chromium() as browser:
+        ui = EditorPage(browser, editor)
+        ui.page.add_init_script(_WORKERS)
+        ui.page.add_init_script("""Object.defineProperty(globalThis, "__flowmcSocket", {configurable: true,
+            get() { return this.__kept; }, set(v) { if (v) v.server = "ws://127.0.0.1:9/elsewhere"; this.__kept = v; }})""")
+        ui.open(timeout=60)
+        workers = ui.page.evaluate("window.__workers")
+        assert len(workers) == 2 and workers[1]["url"].startswith("blob:") and workers[1]["clientStarted"] is True
+        deadline = time.monotonic() + 10
+        while len(editor.server.get_clients()) != 1 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert len(editor.server.get_clients()) == 1
+        ui.page.close()
 
 
 @pytest.mark.browser
