@@ -144,9 +144,10 @@ def _nearest_chord(x: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def band_trajectory(band: Band, x0: np.ndarray, dt: float, *, jerk: bool = True, rounds: int = 12, hold: int = 3,
-                    sides: int = 16, log=print) -> tuple[np.ndarray, int]:
+                    sides: int = 16, reach: float = 0.3, log=print) -> tuple[np.ndarray, int]:
     """Sequential linear programs from ``x0`` (samples, dt apart) with its first and last ``hold`` samples kept
-    (3 at rest: velocity and acceleration zero; 2 for a trapezoid); the last samples and the rounds used."""
+    (3 at rest: velocity and acceleration zero; 2 for a trapezoid), each sample moving at most ``reach`` (mm, per
+    axis) in a round; the last samples and the rounds used."""
     n, x = len(x0), x0.copy()
     nx = 2 * n
     normals, inscribed = _polygon(sides)
@@ -176,8 +177,8 @@ def band_trajectory(band: Band, x0: np.ndarray, dt: float, *, jerk: bool = True,
         cov = _polygon_rows(normals, chord[cover], lam[cover], nvar, nx + n, np.arange(len(cover)))
         cov_rhs = (band.check[cover] @ normals.T).ravel() + inscribed
         a_ub = sp.vstack([sp.hstack([dyn, sp.csr_matrix((dyn.shape[0], nvar - nx))]), tube, cov]).tocsc()
-        lo = np.r_[x.ravel() - 0.3, np.zeros(nvar - nx)]
-        hi = np.r_[x.ravel() + 0.3, np.full(nvar - nx, np.inf)]
+        lo = np.r_[x.ravel() - reach, np.zeros(nvar - nx)]
+        hi = np.r_[x.ravel() + reach, np.full(nvar - nx, np.inf)]
         lo[:2 * hold] = hi[:2 * hold] = x0[:hold].ravel()  # the state at both ends is kept
         lo[nx - 2 * hold:nx] = hi[nx - 2 * hold:nx] = x0[n - hold:].ravel()
         # solved in um, so HiGHS's 1e-7 feasibility tolerance is 1e-10 mm, not 2 % of jmax dt^3 at 1 ms
@@ -236,6 +237,56 @@ def annulus_trajectory(center: np.ndarray, radius: float, x0: np.ndarray, dt: fl
         log(f"    round {rnd}: band violation {res.fun / _UM:.2e} mm, radius {r[hold:-hold].min() - radius:+.4f} "
             f"to {r.max() - radius:+.4f} mm, {time.perf_counter() - t0:.0f} s")
         if res.fun / _UM < 1e-9:
+            return x, rnd
+    return x, rounds
+
+
+def convex_band_trajectory(band: Band, centre: np.ndarray, x0: np.ndarray, dt: float, *, rounds: int = 12,
+                           hold: int = 2, reach: float = 1.5, log=print) -> tuple[np.ndarray, int]:
+    """``band_trajectory`` for lines that turn one way round ``centre`` (a spiral; trapezoid limits): each sample
+    inside the outer offsets of its nearest line and the two either side (the outside of a convex polygon's band
+    is convex) and outside the inner offsets of its and its neighbours' nearest lines (re-linearised every
+    round), all 2e-4 mm inside
+    the tolerance; going round once in the band, the samples then keep the tolerance both ways. No row pins a
+    sample to a short stretch of the lines, so samples slide along them as a shorter duration asks."""
+    n, x = len(x0), x0.copy()
+    nx = 2 * n
+    d = band.b - band.a
+    u = np.c_[d[:, 1], -d[:, 0]] / np.maximum(np.linalg.norm(d, axis=1), 1e-30)[:, None]
+    u *= np.sign(np.einsum("ij,ij->i", (band.a + band.b) / 2 - centre, u))[:, None]  # outward
+    off = np.einsum("ij,ij->i", u, band.a)
+    room = TOL - 2e-4
+    dyn, dyn_rhs = _differences(n, dt, False)
+    for rnd in range(1, rounds + 1):
+        t0 = time.perf_counter()
+        line = band.nearest_line(x)
+        near = np.clip(line[:, None] + np.arange(-2, 3)[None, :], 0, len(u) - 1)
+        # inside: each sample beyond the inner offsets of its own and its neighbours' nearest lines, so both ends
+        # of a chord are on one side of each (the band's inside edge is not convex: a chord may cut its corners)
+        inside = np.c_[line, np.r_[line[:1], line[:-1]], np.r_[line[1:], line[-1:]]]
+        k = np.r_[np.repeat(np.arange(n), near.shape[1]), np.repeat(np.arange(n), 3)]
+        j = np.r_[near.ravel(), inside.ravel()]
+        sign = np.r_[np.ones(near.size), -np.ones(inside.size)]
+        m = len(k)
+        rows = sp.csr_matrix(((sign[:, None] * u[j]).ravel(), (np.repeat(np.arange(m), 2),
+                                                               np.c_[2 * k, 2 * k + 1].ravel())), shape=(m, nx + n)) \
+            - sp.csr_matrix((np.ones(m), (np.arange(m), nx + k)), shape=(m, nx + n))
+        rhs = sign * off[j] + room
+        a_ub = sp.vstack([sp.hstack([dyn, sp.csr_matrix((dyn.shape[0], n))]), rows]).tocsc()
+        lo = np.r_[x.ravel() - reach, np.zeros(n)]
+        hi = np.r_[x.ravel() + reach, np.full(n, np.inf)]
+        lo[:2 * hold] = hi[:2 * hold] = x0[:hold].ravel()
+        lo[nx - 2 * hold:nx] = hi[nx - 2 * hold:nx] = x0[n - hold:].ravel()
+        res = linprog(np.r_[np.zeros(nx), np.ones(n)], A_ub=a_ub, b_ub=_UM * np.r_[dyn_rhs, rhs],
+                      bounds=_UM * np.c_[lo, hi], method="highs")
+        if res.status != 0:
+            log(f"    round {rnd}: {res.message}")
+            return x, rnd
+        x = res.x[:nx].reshape(-1, 2) / _UM
+        dev = band.deviation(x)
+        log(f"    round {rnd}: band violation {res.fun / _UM:.2e} mm, deviation {dev[0]:.4f} / {dev[1]:.4f} mm, "
+            f"{time.perf_counter() - t0:.0f} s")
+        if res.fun / _UM < 1e-9 and max(dev) <= TOL:
             return x, rnd
     return x, rounds
 
@@ -358,56 +409,59 @@ def _program_check(path: Path, positions: np.ndarray, segment: np.ndarray, m) ->
 
 
 def circle(args) -> None:
-    """3dtest's three full circles (r = 17.96 mm, each from rest to rest: a rapid before and after)."""
+    """3dtest's three full circles (r = 17.96 mm, in XY, XZ and YZ, each from rest to rest: a rapid before and
+    after), each on its own: the plan's boundary samples differ between them by up to 0.07 mm."""
     path, m = cam.program_path("3dtest"), cam.machine()
     circles = [i for i, s in enumerate(path.segments) if s.kind == "arc"]
-    arcs = [_arc_vertices(path, i) for i in circles]
-    plane = np.flatnonzero(np.ptp(arcs[0], axis=0) > 0)  # the first circle's plane (XY)
-    band = Band(arcs[0][:, plane])
-    centre = path.segments[circles[0]].center[plane]
-    radius = float(np.linalg.norm(band.v[0] - centre))
-    plan = plan_smooth(path, m, tolerance=TOL)
-    traj = plan.trajectory
-    on = np.flatnonzero(traj.segment == circles[0])
-    plan_xy = traj.positions[on[0] - 1:on[-1] + 1][:, plane]  # from the rest at its start to the rest at its end
+    traj = plan_smooth(path, m, tolerance=TOL).trajectory
     times = [np.count_nonzero(traj.segment == i) * m.period for i in circles]
     feed = flowmc_feed_time(traj, path)
     print(f"3dtest: circles {circles} take {', '.join(f'{t:.3f}' for t in times)} s of the plan's {feed:.3f} s "
           f"of feed; 0.90 x LinuxCNC (16.796 s) needs {0.9 * 16.796:.3f} s, so each circle "
           f"{(0.9 * 16.796 - feed + sum(times)) / 3:.4f} s", flush=True)
-    start = np.load(args.init)[1:-1] if args.init else plan_xy  # as --save left it: one rest sample each end
-    best = None
-    for factor in args.factors:
-        chords = int(round(factor * times[0] / args.dt))
-        x0 = at_rest(np.vstack([band.v[0], stretched(start, chords * args.dt, args.dt), band.v[-1]]),
-                     band.v[0], band.v[-1], 2)
-        print(f"\n  {factor:.4f} x the plan's circle = {chords * args.dt:.3f} s, dt = {args.dt * 1e3:g} ms", flush=True)
-        x, used = annulus_trajectory(centre, radius, x0, args.dt, rounds=args.rounds,
-                                     log=lambda s: print(s, flush=True))
-        dev, pk = band.deviation(x), peaks(x, args.dt)
-        ok = max(dev) <= TOL and max(pk[:2]) <= 1.0 + 1e-4
-        print(f"    {'found' if ok else 'none found'}: deviation {dev[0]:.4f} / {dev[1]:.4f} mm, v/vmax {pk[0]:.4f}, "
-              f"a/amax {pk[1]:.6f}, {used} rounds", flush=True)
-        if ok:
-            start, best = x[1:-1], x
+    pos, seg, last = [], [], 0
+    for n_circle, (i, t_plan) in enumerate(zip(circles, times)):
+        arc = _arc_vertices(path, i)
+        plane = np.flatnonzero(np.ptp(arc, axis=0) > 0)
+        band = Band(arc[:, plane])
+        centre = path.segments[i].center[plane]
+        radius = float(np.linalg.norm(band.v[0] - centre))
+        on = np.flatnonzero(traj.segment == i)
+        # the plan's samples tagged with the circle and one either side: the rapid's last step before the start
+        # and its first after the end; the first two and last two are kept, so the circle joins them
+        plan_xy = traj.positions[on[0] - 1:on[-1] + 2][:, plane]
+        start = np.load(args.init) if args.init else plan_xy
+        best = None
+        for factor in args.factors:
+            chords = int(round(factor * t_plan / args.dt))
+            x0 = stretched(start, (chords + 1) * args.dt, args.dt)  # chords + 2 samples: chords as the plan counts
+            x0[:2], x0[-2:] = plan_xy[:2], plan_xy[-2:]
+            print(f"\n  circle {i} (plane {'XYZ'[plane[0]]}{'XYZ'[plane[1]]}): {factor:.4f} x the plan's = "
+                  f"{chords * args.dt:.3f} s, dt = {args.dt * 1e3:g} ms", flush=True)
+            x, used = annulus_trajectory(centre, radius, x0, args.dt, rounds=args.rounds,
+                                         log=lambda s: print(s, flush=True))
+            dev, pk = band.deviation(x), peaks(x, args.dt)
+            ok = max(dev) <= TOL and max(pk[:2]) <= 1.0 + 1e-4
+            print(f"    {'found' if ok else 'none found'}: deviation {dev[0]:.4f} / {dev[1]:.4f} mm, v/vmax "
+                  f"{pk[0]:.4f}, a/amax {pk[1]:.6f}, {used} rounds", flush=True)
+            if not ok:
+                break
+            start, best = x, x
             if args.save:
-                np.save(args.save, x)
-    if best is None or args.dt != m.period:
-        return
-    # the program with each circle run this way (the circles are the same one in three planes: fit the map)
-    pos, seg = [], []
-    cuts = [0]
-    for i, arc in zip(circles, arcs):
-        idx = np.flatnonzero(traj.segment == i)
-        lift = np.linalg.lstsq(np.c_[arcs[0][:, plane], np.ones(len(arc))], arc, rcond=None)[0]
-        assert np.abs(np.c_[arcs[0][:, plane], np.ones(len(arc))] @ lift - arc).max() < 1e-9
-        pos += [traj.positions[cuts[-1]:idx[0]], np.c_[best[2:-1], np.ones(len(best) - 3)] @ lift]
-        seg += [traj.segment[cuts[-1]:idx[0]], np.full(len(best) - 3, i)]
-        cuts.append(idx[-1] + 1)
-    pos.append(traj.positions[cuts[-1]:])
-    seg.append(traj.segment[cuts[-1]:])
-    print(f"\n3dtest with every circle so: {_program_check(path, np.vstack(pos), np.concatenate(seg), m)}")
-    print(f"3dtest as planned:         {_program_check(path, traj.positions, traj.segment, m)}")
+                np.save(f"{args.save}.{n_circle}.npy", x)
+        if best is None or args.dt != m.period:
+            continue
+        full = np.repeat(traj.positions[on[0]:on[0] + 1], len(best) - 4, axis=0)  # the normal axis as planned
+        full[:, plane] = best[2:-2]
+        pos += [traj.positions[last:on[0] + 1], full]
+        seg += [traj.segment[last:on[0] + 1], np.full(len(full), i)]
+        last = on[-1]
+    if pos:
+        pos.append(traj.positions[last:])
+        seg.append(traj.segment[last:])
+        print(f"\n3dtest with the circles so: {_program_check(path, np.vstack(pos), np.concatenate(seg), m)}")
+        print(f"3dtest as planned:          {_program_check(path, traj.positions, traj.segment, m)}")
+
 
 def spiral(args) -> None:
     """LinuxCNC's spiral (800 lines of 4.5 degrees, r = 51 mm down to 0, at rest at the centre), turn by turn:
@@ -422,7 +476,7 @@ def spiral(args) -> None:
     traj = plan.trajectory
     z = path.segments[lines[0]].start[2]
     on = np.flatnonzero(np.isin(traj.segment, lines))
-    first = on[np.flatnonzero(traj.positions[on, 2] != z)[-1] + 1]  # past the plunge's blend: the spiral in XY
+    first = on[np.flatnonzero(np.abs(traj.positions[on, 2] - z) > 1e-6)[-1] + 1]  # past the plunge's blend
     per_turn = int(round(2 * np.pi / np.radians(4.5)))
     cuts = [first] + [on[np.searchsorted(traj.segment[on], lines[0] + t * per_turn)]
                       for t in range(1, len(lines) // per_turn)] + [on[-1]]
@@ -447,8 +501,8 @@ def spiral(args) -> None:
             x0 = stretched(start, (len(xw) - 1 - k) * args.dt, args.dt)
             x0[:2], x0[-2:] = xw[:2], xw[-2:]
             print(f"  turn {t}: samples {a}-{b} ({(b - a) * args.dt:.3f} s), {k} periods off", flush=True)
-            x, used = band_trajectory(band, x0, args.dt, jerk=False, rounds=args.rounds, hold=2, sides=args.sides,
-                                      log=lambda s: print(s, flush=True))
+            x, used = convex_band_trajectory(band, np.zeros(2), x0, args.dt, rounds=args.rounds,
+                                             log=lambda s: print(s, flush=True))
             dev, pk = band.deviation(x), peaks(x, args.dt)
             ok = max(dev) <= TOL and max(pk[:2]) <= 1.0 + 1e-4
             used_all.append(used)
@@ -459,13 +513,12 @@ def spiral(args) -> None:
         parts.append((a, b, None if found is None else found[1], None if found is None else found[2]))
         print(f"  turn {t}: {found[0] if found else 0} periods saved", flush=True)
     out_p, out_s, last = [], [], 0
-    for a, b, x, band in parts:
+    for a, b, x, band in parts:  # each window's x replaces the plan's samples a..b-1 (b: the next one's first)
         if x is None:
             continue
-        out_p += [pos[last:a], np.c_[x, np.full(len(x), z)]]
-        near = band.nearest_line(x)
-        out_s += [seg[last:a], lo_index(path, band.a[near], lines)]
-        last = b + 1
+        out_p += [pos[last:a], np.c_[x[:-1], np.linspace(pos[a, 2], pos[b, 2], len(x))[:-1]]]  # z: the plan's
+        out_s += [seg[last:a], lo_index(path, band.a[band.nearest_line(x[:-1])], lines)]
+        last = b
     out_p.append(pos[last:])
     out_s.append(seg[last:])
     print("\nturn  plan s  periods saved  deviation mm (window)  rounds")
