@@ -421,6 +421,8 @@ def circle(args) -> None:
           f"{(0.9 * 16.796 - feed + sum(times)) / 3:.4f} s", flush=True)
     pos, seg, last = [], [], 0
     for n_circle, (i, t_plan) in enumerate(zip(circles, times)):
+        if args.turns is not None and n_circle not in args.turns:
+            continue
         arc = _arc_vertices(path, i)
         plane = np.flatnonzero(np.ptp(arc, axis=0) > 0)
         band = Band(arc[:, plane])
@@ -544,7 +546,7 @@ def main() -> None:
     ap.add_argument("--save", help="save the samples of each trajectory found here (.npy; the last one stays)")
     ap.add_argument("--init", help="start from these samples (.npy, any period; stretched to the first duration) "
                                    "instead of the trapezoid plan's")
-    ap.add_argument("--turns", type=int, nargs="+", help="spiral: only these turns (from 0)")
+    ap.add_argument("--turns", type=int, nargs="+", help="only these turns of spiral, circles of 3dtest (from 0)")
     ap.add_argument("--saves", type=int, nargs="+", default=[4, 8, 12],
                     help="spiral: periods to take off each turn, tried in turn while they succeed")
     ap.add_argument("--no-jerk", dest="jerk", action="store_false",
