@@ -12,8 +12,9 @@ period dt: per axis, |first, second, third differences| <= vmax dt, amax dt^2, j
 the sampled peaks the benchmarks report), rest (zero velocity and acceleration) at both ends; every
 sample inside the tolerance capsule of the programmed line nearest to it in the previous iterate
 (a 16-sided polygon inscribed in the capsule), and every point of the programmed lines (at most 6 um
-apart) within the tolerance of the sample nearest it (an inscribed 16-gon; held for the points within
-0.015 mm of losing it, the rest checked after). Band violations carry an L1
+apart) within the tolerance of the nearest chord of the samples, at the point of it nearest in the
+previous iterate (an inscribed 16-gon; every fifth of the points within 0.015 mm of losing it held, and
+any the last round lost, the rest checked after). Band violations carry an L1
 penalty; each round is one linear program (scipy's HiGHS), and the nearest lines are re-assigned
 between rounds (sequential convex programming) until the samples keep the tolerance both ways,
 measured exactly as benchmarks/cam_programs.py measures plans (flowmc.motion.metrics: every chord
@@ -24,8 +25,15 @@ last trajectory found.
 A ``yes`` is a proof by construction: the samples printed keep every limit and the tolerance both
 ways. A ``no`` only says this local method found none from that start.
 
+With ``--no-jerk`` it asks the trapezoid question of issue 14 (0.90 x LinuxCNC) on 3dtest's three circles
+(``annulus_trajectory``: each rest to rest, joined to the plan's samples either side) and on spiral turn by
+turn (``convex_band_trajectory``: windows of the plan's 1 ms samples, their first and last two kept, so the
+periods each saves add up); both print the whole program measured as cam_programs.py measures plans.
+
     python3 benchmarks/scurve_bound.py [--dt 0.002] [--factors 1.3 1.25] [--rounds 12] [--save X.npy]
     python3 benchmarks/scurve_bound.py --dt 0.001 --init X.npy   # at 1 ms, from the 2 ms trajectory
+    python3 benchmarks/scurve_bound.py 3dtest --no-jerk --dt 0.001 --factors 0.995 0.9942 --rounds 6
+    python3 benchmarks/scurve_bound.py spiral --no-jerk --dt 0.001 --saves 4 8 12 16 --rounds 6
 """
 
 from __future__ import annotations
