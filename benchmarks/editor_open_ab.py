@@ -3,8 +3,8 @@ open row measures one checkout at a time; on a shared machine only a side-by-sid
 
 Each checkout serves the same generated graph from a process of its own (this file with ``--serve``, that
 checkout's ``flowmc`` on the path); one headless Chromium opens each in a fresh context in turn, the order
-reversed every round, round 0 a warm-up. An open is ``page.goto`` until every node body is in the scene and the
-camera is locked (as ``EditorPage.open``). Beside it, the CPU time Chromium's processes spent during the open
+reversed every round, round 0 a warm-up. An open is ``page.goto`` until the frame in which every node body is in the
+scene and the camera is locked has been drawn (as ``EditorPage.open``). Beside it, the CPU time Chromium's processes spent during the open
 (read from /proc: the browser, its GPU process, the page's renderer, utilities), and the GPU process's share.
 
 Run: ``python3 benchmarks/editor_open_ab.py [--rounds 6] [--nodes 120] A=/path/to/checkout B=/other/checkout``
@@ -96,7 +96,7 @@ def main() -> int:
     if len(args.checkouts) < 2 or any("=" not in c for c in args.checkouts):
         parser.error("give two or more LABEL=PATH checkouts")
     sys.path[:0] = [str(ROOT / "tests" / "ui")]
-    from browser_helpers import _INSTANCES, VIEWPORT, chromium
+    from browser_helpers import NEXT_FRAME, VIEWPORT, chromium, opened
 
     servers = []
     for spec in args.checkouts:
@@ -117,8 +117,8 @@ def main() -> int:
                     page = browser.new_page(viewport=VIEWPORT)
                     before, start = chromium_cpu(), time.perf_counter()
                     page.goto(url)
-                    page.wait_for_function(f"({_INSTANCES})('/canvas/body') === {count}", timeout=120000)
-                    page.wait_for_function("window.__flowmcCameraLocked === true", timeout=120000)
+                    page.wait_for_function(opened(count), timeout=120000)
+                    page.evaluate(NEXT_FRAME)
                     wall = time.perf_counter() - start
                     cpu, gpu = spent(before, chromium_cpu())
                     page.close()

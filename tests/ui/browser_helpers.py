@@ -39,6 +39,16 @@ def chromium() -> Iterator[Browser]:
 _INSTANCES = """(name) => { const o = window.__viserMutable?.nodeRefFromName?.[name]; if (!o) return -1;
   let m = null; o.traverse(c => { if (c.isInstancedMesh && !m) m = c; }); return m ? (m.instancesCount ?? m.count) : -1; }"""
 
+def opened(count: int) -> str:
+    """The page holds ``count`` node bodies and its camera is locked: an open is done at the frame where both hold
+    (one condition, so that its polling adds no frame of its own: with two waits in turn, each polled on the
+    page's frames, one open ended up to two frames after the drawing)."""
+    return f"() => ({_INSTANCES})('/canvas/body') === {count} && window.__flowmcCameraLocked === true"
+
+
+# The frame after: by its start the frame in which a condition held has been drawn.
+NEXT_FRAME = "() => new Promise(resolve => requestAnimationFrame(() => resolve()))"
+
 _COLORS = """(name) => { const o = window.__viserMutable.nodeRefFromName[name]; let m = null;
   o.traverse(c => { if (c.isInstancedMesh && !m) m = c; }); const C = m.material.color.constructor; const out = [];
   for (let i = 0; i < (m.instancesCount ?? m.count); i++) { const c = new C(); m.getColorAt(i, c); out.push([c.r, c.g, c.b]); } return out; }"""
@@ -74,11 +84,11 @@ class EditorPage:
 
     def open(self, timeout: float = 30.0, query: str = "") -> float:
         """Load the page (``query``: more URL parameters, e.g. viser's ``fixedDpr=0.75``); returns seconds
-        until every node is in the scene and the camera is locked."""
+        until the frame in which every node is in the scene and the camera is locked has been drawn."""
         start = time.perf_counter()
         self.page.goto(self.editor.url + (f"&{query}" if query else ""))
-        self.wait_nodes(len(self.editor.canvas.boxes), timeout)
-        self.page.wait_for_function("window.__flowmcCameraLocked === true", timeout=timeout * 1000)
+        self.page.wait_for_function(opened(len(self.editor.canvas.boxes)), timeout=timeout * 1000)
+        self.page.evaluate(NEXT_FRAME)
         return time.perf_counter() - start
 
     def settled(self, timeout: float = 15.0) -> None:
