@@ -4,8 +4,9 @@ open row measures one checkout at a time; on a shared machine only a side-by-sid
 Each checkout serves the same generated graph from a process of its own (this file with ``--serve``, that
 checkout's ``flowmc`` on the path); one headless Chromium opens each in a fresh context in turn, the order
 reversed every round, round 0 a warm-up. An open is ``page.goto`` until the frame in which every node body is in the
-scene and the camera is locked has been drawn (as ``EditorPage.open``). Beside it, the CPU time Chromium's processes spent during the open
-(read from /proc: the browser, its GPU process, the page's renderer, utilities), and the GPU process's share.
+scene and the camera is locked has been drawn (as ``EditorPage.open``). Beside it, the CPU time Chromium's processes
+spent during the open (read from /proc: the browser, its GPU process, the page's renderer, utilities), and the GPU
+process's share.
 
 Run: ``python3 benchmarks/editor_open_ab.py [--rounds 6] [--nodes 120] A=/path/to/checkout B=/other/checkout``
 (``git archive HEAD | tar -x -C /tmp/base`` makes a checkout of a commit). Prints each open and a table of medians.
