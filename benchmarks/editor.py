@@ -8,7 +8,7 @@
 - click -> selection frame: a click on a node until its frame has the selection colour in the scene
   and one more frame was drawn, timed inside the page from the pointerdown event.
 - click -> side panel: from the same pointerdown until the side panel names the selected node.
-- open 120 nodes: ``page.goto`` until every node body is in the scene and the camera is locked flat, in a
+- open 120 nodes: ``page.goto`` until the frame with every node body in the scene and the camera locked flat is drawn, in a
   fresh browser context each time (nothing cached: a first-ever open); beside it the same again in one context
   after a first open (a reload or another tab: the client's script comes from the browser's cache), the same
   for the 4-node graph, which is mostly the page's own start-up (viser's client), and the 120-node graph
