@@ -34,6 +34,9 @@ client's first camera on it (``_EARLY_SOCKET``): viser's client would open it on
 server runs its connect callbacks (the editor's framing and camera lock) only once a camera is reported, so the lock
 came a frame after the first drawing. The client takes the page's worker and the messages it held (``_SOCKET_MAKE``).
 
+viser's notice that WebGL runs in software closes itself after ``SOFTWARE_NOTICE_MS`` (``_SOFTWARE_NOTICE``): viser
+keeps it until closed by hand, and it covered the side panel's palette for as long as the editor was open.
+
 If the installed viser's page does not have the shape this expects, ``files()`` is None and viser
 serves its own page, as before (slower, nothing else changes); tests/ui/test_viser_client.py fails then.
 """
@@ -52,7 +55,7 @@ import numpy as np
 import viser
 import zstandard
 
-__all__ = ["ClientFiles", "files", "page", "asset", "PREFIX", "CACHE"]
+__all__ = ["ClientFiles", "files", "page", "asset", "PREFIX", "CACHE", "SOFTWARE_NOTICE_MS"]
 
 PREFIX = "/flowmc-client/"
 # The script and decoder never change under their address (it names their hash): a browser opening the editor
@@ -91,7 +94,12 @@ _WORKER = re.compile(r"var f7='([^'\\]*)',p7=typeof self")
 _SOCKET_MAKE = ("let a=new Wle,o=!1,s=null;function c(e){a.postMessage(e)}let l=m7();l!==void 0&&"
                 "c({type:`zstd_wasm`,module:l});")
 _SOCKET_START = "},c({type:`set_server`,server:n}),()=>{"
+# viser's software-WebGL notice (kept until closed by hand) closes itself after this long: read, then out of the way.
+SOFTWARE_NOTICE_MS = 8000
+_SOFTWARE_NOTICE = ("Performance may be degraded. If this is unexpected, check that hardware acceleration is enabled "
+                    "in your browser settings.`,autoClose:!1,color:`orange`}")
 _SUBSTITUTIONS = ((_DEFAULT_START, _PLAIN_START),
+                  (_SOFTWARE_NOTICE, _SOFTWARE_NOTICE.replace("autoClose:!1", f"autoClose:{SOFTWARE_NOTICE_MS}")),
                   (_VISER_PROBE, "function tfe(){return globalThis.__flowmcWebGL()}"),
                   (_ANTIALIAS, "powerPreference:`high-performance`,antialias:!globalThis.__flowmcWebGL().software,alpha:!0}"),
                   (_FOLDER_STATE, "d=a.useGuiConfig(i??``,e=>i==null?null:e?.type??null),f=b.useRef(!1);"

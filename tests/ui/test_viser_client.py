@@ -14,6 +14,7 @@ import pytest
 from browser_helpers import EditorPage, chromium
 from editor_graphs import example_file
 from flowmc.ui import viser_client
+from flowmc.ui.viser_client import SOFTWARE_NOTICE_MS
 
 
 def _joined(message):
@@ -98,7 +99,8 @@ def test_a_browser_runs_the_served_client_without_the_default_environment(editor
 @pytest.mark.browser
 def test_software_webgl_is_probed_once_and_the_canvas_is_not_multisampled(editor):
     """Under SwiftShader the page's one probe says software: viser's notice still shows (its check reads the
-    probe), no other throw-away context is made, and the renderer's context has no antialiasing."""
+    probe) and then closes itself, no other throw-away context is made, and the renderer's context has no
+    antialiasing."""
     with chromium() as browser:
         page = browser.new_page()
         page.add_init_script("""(() => { const get = HTMLCanvasElement.prototype.getContext; window.__contexts = 0;
@@ -106,11 +108,15 @@ def test_software_webgl_is_probed_once_and_the_canvas_is_not_multisampled(editor
               if (String(kind).startsWith('webgl')) window.__contexts++; return get.call(this, kind, ...rest); }; })()""")
         page.goto(editor.url)
         page.wait_for_function("window.__flowmcCameraLocked === true", timeout=60000)
-        page.get_by_text("Software WebGL rendering detected").wait_for(timeout=10000)
+        notice = page.get_by_text("Software WebGL rendering detected")
+        notice.wait_for(timeout=10000)
+        shown = time.monotonic()
         probe = page.evaluate("globalThis.__flowmcGL")
         assert probe["software"] is True and probe["supported"] is True and "SwiftShader" in probe["renderer"]
         assert page.evaluate("window.__viserMutable.canvas.getContext('webgl2').getContextAttributes().antialias") is False
         assert page.evaluate("window.__contexts") == 3  # the probe, the renderer's, and the line above asking again
+        notice.wait_for(state="hidden", timeout=SOFTWARE_NOTICE_MS + 10000)
+        assert time.monotonic() - shown > SOFTWARE_NOTICE_MS / 1000 - 1.0  # it stayed to be read
         page.close()
 
 
