@@ -513,7 +513,7 @@ def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds
     for share in _WINDOWS:
         window = share * base
         budget_of = _Budgets(geo, m, lim, window)
-        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
+        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window)
         y, _ = _profile(cap, stops, ds, budget_of)
         y = _filterable(y, cap, budget_of, stops, ds, window, rest, mend_swings)
         dt = np.diff(_node_times(y, ds))
@@ -736,22 +736,24 @@ class _Phases:
         return cum[k] + inside + after + before
 
 
-def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float, period: float) -> np.ndarray:
-    """How long the unfiltered motion waits at each node: at every stop inside the program its dwell, but at
-    least a period, so that no sampled acceleration sees both the arrival and the departure (which may go
-    another way); plus Tj when filtered, so that the filtered motion rests there that long too. At the
-    program's ends, the dwell."""
+def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float) -> np.ndarray:
+    """How long the unfiltered motion waits at each node: at every stop its dwell, plus Tj inside the program
+    when filtered, so that the filtered motion rests there that long too. Unfiltered, a stop with no dwell is
+    passed at rest in an instant: a sampled acceleration that sees both the arrival and the departure (which may
+    go another way) is an average of the two, each within the per-axis limits, so it is too (a second
+    difference is the acceleration weighed over two periods)."""
     wait = np.zeros(n)
     np.add.at(wait, stop_node, dwell)
-    inner = np.zeros(n, dtype=bool)
-    inner[stop_node] = True
-    inner[[0, -1]] = False
-    wait[inner] = wait[inner] + window if window > 0 else np.maximum(wait[inner], period)
+    if window > 0:
+        inner = np.zeros(n, dtype=bool)
+        inner[stop_node] = True
+        inner[[0, -1]] = False
+        wait[inner] += window
     return wait
 
 
 def _phases(law: TimeLaw) -> _Phases:
-    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.window, law.period)
+    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.window)
     owner = np.full(len(law.s), -1)
     owner[law.stop_node] = law.stop_segment
     return _phases_of(law.s, law.y, law.accel, wait, owner)
