@@ -370,6 +370,27 @@ def test_a_gcode_plan_rests_where_a_rapid_meets_a_feed_move_and_blends_feed_corn
     assert np.abs(v).max() <= 200.0 + 1e-9 and np.abs(np.diff(v, axis=0) / T).max() <= 200.0 * 1.01
 
 
+
+def test_a_trapezoid_plan_stops_short_of_a_reversal_within_the_tolerance_and_passes_stops_without_a_rest():
+    """A reversal between two lines next to a blend is stopped at a tolerance before it (the tool need not reach
+    the apex: the apex stays within the tolerance of the tool path); a stop is passed at rest in an instant, the
+    sampled acceleration there being an average of the arrival's and the departure's, each within the limits."""
+    pts = [[0, 0, 0], [40, 30, 0], [20, 15, 0], [40, 0, 0]]  # a reversal at (40, 30), then a 90-degree turn
+    path = Path.polyline(pts, feed=200.0)
+    planned = plan_smooth(path, machine(period=0.001), tolerance=TOL)
+    traj, law = planned.trajectory, planned.law
+    within_limits(traj, None)
+    assert max(deviation_both_ways(traj, path)) <= TOL
+    pos = traj.positions
+    far = np.argmax(pos[:, 0] + 0.75 * pos[:, 1])  # the farthest the tool goes towards the apex
+    gap = np.linalg.norm(pos[far] - [40, 30, 0])
+    assert 0.9 * TOL < gap <= TOL
+    speed = np.linalg.norm(np.diff(pos, axis=0), axis=1) / traj.period
+    assert speed[far - 1:far + 1].max() <= 200.0 * 2 * traj.period  # at rest within a period either side
+    v = np.sqrt(np.maximum(law.y, 0.0))
+    moving = float(np.sum(2.0 * np.diff(law.s) / np.maximum(v[1:] + v[:-1], 1e-300)))
+    assert len(law.stop_node) == 3 and math.ceil(moving / traj.period - 1e-9) == len(traj) - 1  # no rests added
+
 # ---------------------------------------------------------------- how close to time-optimal
 
 @pytest.mark.parametrize("name", NAMES)
