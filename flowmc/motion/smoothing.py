@@ -69,8 +69,8 @@ _CURVE_STEP = 1.0  # mm: tabulated curves (ellipse, NURBS) become cubic splines 
 _G2_STRETCH = 2.0  # a curvature-continuous corner needs this many times the tangent arc's trim
 _FLAT = 0.002  # a curve whose normal acceleration at full speed is this share of amax counts as straight
 _SPLIT_MOST = 0.6  # two-parabola corner blends slow down along the spare axis by at most this share
-_SPLIT_GAIN = 0.99  # ... where their time, by _corner_time, is below this share of one parabola's (the time law
-# follows two a little less closely: 3dtest's two 103-degree corners at 0.999 took 43 ms longer)
+_SPLIT_GAIN = 1.0  # ... where their time, by _corner_time, is below this share of one parabola's (at 0.99, 3dtest's
+# lettering kept one parabola at a corner where two are 2 ms quicker under the exact time law)
 _SHARP = math.radians(30.0)  # corners turning more than this are fitted on their own, with finer knots
 _FIT_ITER = 16
 _FIT_SETTLE = 6  # iterations that may also smooth more where the tolerance is met with room to spare
@@ -776,8 +776,8 @@ class _Outside:
     end: np.ndarray
 
 
-def _outside_corners(el: _Elements, raw: PlannedCurve, j: np.ndarray, stop: np.ndarray, room_in: np.ndarray,
-                     room_out: np.ndarray, tol: float, still: np.ndarray) -> _Outside:
+def _outside_corners(el: _Elements, raw: PlannedCurve, j: np.ndarray, stop: np.ndarray, short: np.ndarray,
+                     room_in: np.ndarray, room_out: np.ndarray, tol: float, still: np.ndarray) -> _Outside:
     """Move lone line-line corners out, so their blends use the tolerance band on both sides of the path.
 
     A fast way through a corner within a band keeps to the outside of the band before and after it and cuts
@@ -798,6 +798,9 @@ def _outside_corners(el: _Elements, raw: PlannedCurve, j: np.ndarray, stop: np.n
     short to reach back past the slide), C stays. Lines next to anything else (a fitted run, an arc) keep
     their direction, so nothing else changes. Moves are at most 2 tol. The deviation both ways is checked
     on sampled plans over turns of 20-150 degrees, with both kinds of move (tests/motion/test_planner.py).
+    A reversal between two redrawn lines (``short``: the tool stops there anyway) moves back along them by up
+    to tol (a quarter of the shorter line at most): the tool stops short of the apex, which stays within tol
+    of where it stops (3dtest's six reversals: 8 ms).
     """
     nj = len(el.seg) - 1
     cand = np.zeros(nj, dtype=bool)
@@ -823,6 +826,10 @@ def _outside_corners(el: _Elements, raw: PlannedCurve, j: np.ndarray, stop: np.n
                               np.where((~r_in & r_out)[:, None], slide[:, None] * u_in, 0.0))))
     s_at = np.zeros((nj + 2, 3))  # per element boundary
     s_at[j + 1] = shift
+    # a reversal between two redrawn lines (``short``) is stopped at up to tol before it, on both lines at once
+    k = np.flatnonzero(short & redrawn[:-1] & redrawn[1:])
+    span = el.u1 - el.u0
+    s_at[k + 1] = -np.minimum(tol, 0.25 * np.minimum(span[k], span[k + 1]))[:, None] * el.t1[k]
     line = np.flatnonzero(redrawn)
     start = raw.points(el.u0[line]) + s_at[line]
     end = raw.points(el.u1[line]) + s_at[line + 1]
@@ -946,7 +953,8 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         room_in, room_out = el.u1[j] - runs.ua[blends], runs.ub[blends] - el.u0[j + 1]
         still = np.zeros(len(j), dtype=bool)
         while True:  # a blend too short to reach back past a slid corner (no room) keeps its corner where it is
-            out = _outside_corners(el, raw, j, stop, room_in, room_out, tol_fit, still)
+            out = _outside_corners(el, raw, j, stop, (alpha >= REVERSAL) & ~gap_stop, room_in, room_out, tol_fit,
+                                   still)
             if g2:
                 d, breaks, coef = _corner_jerk_blends(out.corner, out.u_in, out.u_out, out.room, v_full, out.apex,
                                                       limits)

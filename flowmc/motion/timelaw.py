@@ -22,10 +22,11 @@ with budgets taken at the speed of a given profile form an antitone map, so its 
 around its fixed point; every second iterate used budgets taken at a faster profile and is
 therefore feasible, and they increase towards the fixed point. That is how the jerk-limited law is
 planned. Without a jerk limit no iteration is needed: each axis's budget on an interval is linear in the
-speeds^2 at its ends (the normal term that hurts taken at the larger, one that helps at the smaller: T_i a
-and K_i v^2 of opposite signs, the tool slowing into a turn on the axis the turn speeds up; TOPP-RA's
-per-interval constraints, linear in (a, v^2)), so the largest speed^2 a node may have given the next one's
-is an affine map per axis, and the fastest profile that keeps every interval's budgets at its own speeds
+speeds^2 at its ends (at the interval's start and end each point's own terms at that end's speed, at its
+middle the normal term that hurts taken at the larger, one that helps at the smaller: T_i a and K_i v^2 of
+opposite signs, the tool slowing into a turn on the axis the turn speeds up; TOPP-RA's per-interval
+constraints, linear in (a, v^2)), so the largest speed^2 a node may have given the next one's is an affine
+map per axis and point, and the fastest profile that keeps every interval's budgets at its own speeds
 is one backward and one forward pass of y_k = min(cap_k, min_i(a_ik y_{k+1} + b_ik)), solved exactly
 (``_greatest``, flowmc.motion.capped_recursion). Any profile the iteration gives keeps those budgets too,
 so this one is at least as fast at every node; so is it than any planned with the caps lower (a profile
@@ -74,10 +75,11 @@ _ARC_STEP_RAD = math.radians(3.0)
 _POLY_SUB = 2  # grid intervals per spline interval
 _REFINE = 6  # rounds of halving grid intervals where the curve turns more than the turn step (rad) ...
 _TURN_STEP = math.radians(2.0)
-_TURN_STEP_TRAPEZOID = math.radians(0.35)  # finer without a jerk limit: each interval's budget is its worst point's, and
-# in a tight fitted turn a coarse interval holds the speed at the turn's sharpest point for longer (3D_Chips 0.4 %,
-# flowsnake 1.2 % quicker at 0.5 degrees than at 2, then 0.07 % and 0.3 % at 0.35; the jerk-limited law keeps the
-# coarser grid its filter is tuned on)
+_TURN_STEP_TRAPEZOID = math.radians(0.2)  # finer without a jerk limit: each interval's budget holds its middle at
+# the worse end's speed, and in a tight fitted turn a coarse interval holds the speed at the turn's sharpest point for
+# longer (3D_Chips 0.4 %, flowsnake 1.2 % quicker at 0.5 degrees than at 2, then 0.07 % and 0.3 % at 0.35; at 0.2
+# with each point's own budget, 3D_Chips 145.442 -> 145.376 s and 3dtest 15.114 -> 15.112 s of feed for about 20 %
+# more of 3D_Chips' planning CPU; the jerk-limited law keeps the coarser grid its filter is tuned on)
 _KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
 _SWING_ROUNDS = 3
 _PLATEAU_ROUNDS = 8
@@ -325,11 +327,14 @@ class _Budgets:
     (amax_i - sign(T_i) K_i y) / |T_i| and a slow-down (amax_i + sign(T_i) K_i y) / |T_i|, at their worst
     over 0 <= y <= Y (``__call__``), or over the speeds^2 at the interval's ends (``maps``). Jerk, when filtered over
     Tj: |T_i| J/Tj + 3 |K_i| sqrt(Y) A + |P3_i| Y^1.5 <= share * jmax_i, with J the largest jump of the
-    acceleration within Tj (the budget, or twice it). Each axis takes the worst of every term over the
-    interval's three points (conservative, and three columns instead of nine).
+    acceleration within Tj (the budget, or twice it). For ``__call__`` each axis takes the worst of every term
+    over the interval's three points (conservative, and three columns instead of nine); ``maps`` keeps each
+    point's own terms.
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
+        self.geo, self.amax = g, lim.amax
+
         def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,), column by column
             return [np.max(a[:, i].reshape(3, m), axis=0) for i in range(3)]
 
@@ -367,21 +372,42 @@ class _Budgets:
         return up, down
 
     def maps(self, ds: np.ndarray) -> tuple[tuple[list, list], tuple[list, list]]:
-        """Without a jerk limit: per axis, the largest speed^2 x' one end of each interval may have given the
-        speed^2 x at its other end, a x + b, for slowing down (x the later end's) and for speeding up (x the
-        earlier end's). Slowing down from y to x on axis i takes y - x <= 2 ds (alpha - beta y + gamma x): the
-        hurting normal term at the larger speed, the helping one at the smaller; solved for y, that is
-        y <= ((1 + 2 ds gamma) x + 2 ds alpha) / (1 + 2 ds beta). An axis that does not move has b = inf."""
+        """Without a jerk limit: per axis and per point of the interval (its start, middle and end, each with its
+        own tangent and normal terms), the largest speed^2 y one end of each interval may have given the
+        speed^2 x at its other end, y <= a x + b, for slowing down (x the later end's) and for speeding up (x the
+        earlier end's). On axis i that takes y - x <= 2 ds (alpha + c y_p), c = -+ sign(T_i) K_i / |T_i| (the
+        normal term helps where c > 0) and y_p = w y + (1 - w) x the speed^2 at the point: at the interval's
+        ends their own (w = 1 at y's end, 0 at x's: exact at the grid's nodes), at its middle the larger where
+        the term hurts and the smaller where it helps (w = 1 or 0: safe whatever y does in between); solved for
+        y, a = (1 + 2 ds c (1 - w)) / (1 - 2 ds c w), b = 2 ds alpha / (1 - 2 ds c w). An end whose term would
+        make a map steep or fall (2 ds |c| over 1/2: a coarse interval in a tight turn) takes the middle's w.
+        An axis that does not move has b = inf. Each point's own terms at its own speed rather than the worst
+        of each over the three at the larger end's: round a turn the tangent and the normal load an axis most
+        at different points, and speeding up from rest the speed^2 at one end is far from the other's
+        (3dtest: 15.1235 -> 15.1141 s of feed motion by the law)."""
         h = 2.0 * ds
-        out = []
-        for key in ("down", "up"):
-            a, b = [], []
-            for row in self.axes:
-                den = 1.0 + h * row["beta_" + key]
-                a.append((1.0 + h * row["gamma_" + key]) / den)
-                b.append(h * row["alpha"] / den)
-            out.append((a, b))
-        return out[0], out[1]
+        m = len(ds)
+        down: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
+        up: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
+        for i in range(3):
+            t, kt = self.geo.t[:, i].reshape(3, m), self.geo.kt[:, i].reshape(3, m)
+            if not (t.any() or kt.any()):
+                continue
+            moving = t > 0
+            inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
+            alpha = np.where(moving, self.amax[i] * inv_t, np.inf)
+            # slowing down y is the earlier end's speed^2 and kt > 0 helps; speeding up y is the later end's
+            for (a, b), sign, ends in ((down, 1.0, (1.0, 0.0)), (up, -1.0, (0.0, 1.0))):
+                for q in range(3):
+                    hc = h * sign * kt[q] * inv_t[q]
+                    w = (hc < 0).astype(float)  # the middle's: hurting at the larger speed, helping at the smaller
+                    if q != 1:
+                        own = ends[q // 2]
+                        w = np.where((hc * own < 0.5) & (hc * (own - 1.0) < 0.5), own, w)
+                    den = 1.0 - hc * w
+                    a.append((1.0 + hc * (1.0 - w)) / den)
+                    b.append(h * alpha[q] / den)
+        return down, up
 
     @cached_property
     def _parts(self) -> list[tuple[_Budgets, slice]]:
@@ -513,7 +539,7 @@ def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds
     for share in _WINDOWS:
         window = share * base
         budget_of = _Budgets(geo, m, lim, window)
-        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
+        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window)
         y, _ = _profile(cap, stops, ds, budget_of)
         y = _filterable(y, cap, budget_of, stops, ds, window, rest, mend_swings)
         dt = np.diff(_node_times(y, ds))
@@ -736,22 +762,24 @@ class _Phases:
         return cum[k] + inside + after + before
 
 
-def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float, period: float) -> np.ndarray:
-    """How long the unfiltered motion waits at each node: at every stop inside the program its dwell, but at
-    least a period, so that no sampled acceleration sees both the arrival and the departure (which may go
-    another way); plus Tj when filtered, so that the filtered motion rests there that long too. At the
-    program's ends, the dwell."""
+def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float) -> np.ndarray:
+    """How long the unfiltered motion waits at each node: at every stop its dwell, plus Tj inside the program
+    when filtered, so that the filtered motion rests there that long too. Unfiltered, a stop with no dwell is
+    passed at rest in an instant: a sampled acceleration that sees both the arrival and the departure (which may
+    go another way) is an average of the two, each within the per-axis limits, so it is too (a second
+    difference is the acceleration weighed over two periods)."""
     wait = np.zeros(n)
     np.add.at(wait, stop_node, dwell)
-    inner = np.zeros(n, dtype=bool)
-    inner[stop_node] = True
-    inner[[0, -1]] = False
-    wait[inner] = wait[inner] + window if window > 0 else np.maximum(wait[inner], period)
+    if window > 0:
+        inner = np.zeros(n, dtype=bool)
+        inner[stop_node] = True
+        inner[[0, -1]] = False
+        wait[inner] += window
     return wait
 
 
 def _phases(law: TimeLaw) -> _Phases:
-    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.window, law.period)
+    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.window)
     owner = np.full(len(law.s), -1)
     owner[law.stop_node] = law.stop_segment
     return _phases_of(law.s, law.y, law.accel, wait, owner)

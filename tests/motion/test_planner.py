@@ -370,6 +370,27 @@ def test_a_gcode_plan_rests_where_a_rapid_meets_a_feed_move_and_blends_feed_corn
     assert np.abs(v).max() <= 200.0 + 1e-9 and np.abs(np.diff(v, axis=0) / T).max() <= 200.0 * 1.01
 
 
+
+def test_a_trapezoid_plan_stops_short_of_a_reversal_within_the_tolerance_and_passes_stops_without_a_rest():
+    """A reversal between two lines next to a blend is stopped at a tolerance before it (the tool need not reach
+    the apex: the apex stays within the tolerance of the tool path); a stop is passed at rest in an instant, the
+    sampled acceleration there being an average of the arrival's and the departure's, each within the limits."""
+    pts = [[0, 0, 0], [40, 30, 0], [20, 15, 0], [40, 0, 0]]  # a reversal at (40, 30), then a 90-degree turn
+    path = Path.polyline(pts, feed=200.0)
+    planned = plan_smooth(path, machine(period=0.001), tolerance=TOL)
+    traj, law = planned.trajectory, planned.law
+    within_limits(traj, None)
+    assert max(deviation_both_ways(traj, path)) <= TOL
+    pos = traj.positions
+    far = np.argmax(pos[:, 0] + 0.75 * pos[:, 1])  # the farthest the tool goes towards the apex
+    gap = np.linalg.norm(pos[far] - [40, 30, 0])
+    assert 0.9 * TOL < gap <= TOL
+    speed = np.linalg.norm(np.diff(pos, axis=0), axis=1) / traj.period
+    assert speed[far - 1:far + 1].max() <= 200.0 * 2 * traj.period  # at rest within a period either side
+    v = np.sqrt(np.maximum(law.y, 0.0))
+    moving = float(np.sum(2.0 * np.diff(law.s) / np.maximum(v[1:] + v[:-1], 1e-300)))
+    assert len(law.stop_node) == 3 and math.ceil(moving / traj.period - 1e-9) == len(traj) - 1  # no rests added
+
 # ---------------------------------------------------------------- how close to time-optimal
 
 @pytest.mark.parametrize("name", NAMES)
@@ -378,9 +399,10 @@ def test_the_time_law_is_within_two_percent_of_topp_ra_on_its_own_curve(name):
     from toppra_reference import toppra_time
 
     p = plan(name, "trapezoid")
-    # a grid of 0.01 mm: at 0.02 TOPP-RA's own discretisation is slower than flowmc's exact law on zigzag40's
-    # corners (9.577 s against 9.548; 9.528 s at 0.01, 9.503 at 0.005)
-    reference = toppra_time(p, machine(), 200.0, grid_step=0.01)
+    # a grid of 0.01 mm: coarser, TOPP-RA's own discretisation is slower than flowmc's exact law on zigzag40's
+    # corners (9.577 s at 0.02, 9.528 at 0.01, against 9.512 with each point's budget at its own speed), so
+    # 0.005 there (9.503; at 0.005 TOPP-RA finds no parameterisation of mixed)
+    reference = toppra_time(p, machine(), 200.0, grid_step=0.005 if name == "zigzag40" else 0.01)
     assert reference <= p.cycle_time <= 1.02 * reference + 2 * 0.004
 
 
@@ -396,8 +418,9 @@ def test_bad_input_names_where():
 
 def test_the_trapezoid_law_keeps_every_budget_at_its_own_speeds_and_is_nowhere_slower_than_the_iteration(monkeypatch):
     # the exact passes on star10's fitted curve: every interval's change of speed^2 within the budgets taken at its
-    # own speeds (per axis, the hurting normal term at the larger end, the helping one at the smaller), and at every
-    # node at least the speed the alternating iteration (the jerk-limited law's) reaches at the same caps
+    # own speeds (per axis, at its start and end each point's own terms at that end's speed, at its middle the
+    # hurting normal term at the larger end's, the helping one at the smaller's), and at every node at least the
+    # speed the alternating iteration (the jerk-limited law's, each term at its worst over the three) reaches
     import flowmc.motion.timelaw as timelaw
 
     seen = []
@@ -415,11 +438,14 @@ def test_the_trapezoid_law_keeps_every_budget_at_its_own_speeds_and_is_nowhere_s
         node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
         assert np.all(y <= node_cap) and np.all(y[stops] == 0.0) and np.all(y >= 0.0)
         hi, lo, dy = np.maximum(y[:-1], y[1:]), np.minimum(y[:-1], y[1:]), np.diff(y)
-        for row in budgets.axes:
-            up = row["alpha"] - row["beta_up"] * hi + row["gamma_up"] * lo
-            down = row["alpha"] - row["beta_down"] * hi + row["gamma_down"] * lo
-            assert np.all(dy <= 2.0 * ds * up * (1 + 1e-9) + 1e-9)
-            assert np.all(-dy <= 2.0 * ds * down * (1 + 1e-9) + 1e-9)
+        a = dy / (2.0 * ds)
+        m = len(ds)
+        for i in range(3):  # per axis: |T_i| |a| + sign(a) sign(T_i) K_i y_p <= amax_i at each of the three points
+            t, kt = budgets.geo.t[:, i].reshape(3, m), budgets.geo.kt[:, i].reshape(3, m)
+            for q, y_p in ((0, y[:-1]), (1, None), (2, y[1:])):
+                pull = np.sign(a) * kt[q]
+                at = np.where(pull > 0, hi, lo) if y_p is None else y_p
+                assert np.all(t[q] * np.abs(a) + pull * at <= budgets.amax[i] * (1 + 1e-9) + 1e-9)
         iterated = timelaw._profile(cap, stops, ds, budgets)[0]
         assert np.all(y >= iterated * (1 - 1e-9))
         assert timelaw._node_times(y, ds)[-1] < timelaw._node_times(iterated, ds)[-1]
