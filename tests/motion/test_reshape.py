@@ -145,3 +145,14 @@ def test_the_check_says_where_a_reshaped_stretch_misses_the_tolerance():
     dev, miss = _deviation(spline, 0.0, curve.length, curve, cKDTree(programmed), programmed, TOL)
     assert 0.055 < dev < 0.061
     assert len(miss) and miss.min() > 10.0 and miss.max() < 15.0
+
+
+def test_short_gaps_between_a_fitted_runs_bound_samples_are_bridged():
+    # samples 0.5 mm apart: a 1 mm gap (two samples) inside a fitted run is bridged, a 2.5 mm one is not, nor
+    # one with a sample not on the fitted run
+    from flowmc.motion.reshape import _bridged
+
+    bound = np.array([1, 1, 0, 0, 1, 1, 0, 0, 0, 0, 0, 1, 1, 0, 0, 1], dtype=bool)
+    fitted = np.ones(len(bound), dtype=bool)
+    fitted[13] = False
+    assert _bridged(bound, fitted).astype(int).tolist() == [1, 1, 1, 1, 1, 1, 0, 0, 0, 0, 0, 1, 1, 0, 0, 1]
