@@ -10,15 +10,21 @@ time law on the circle already takes part of it by speeding up at the diagonals 
 
 How: along each curvature-bound stretch of a programmed arc, the curve p(s) is offset along its principal
 normal N by d(s), within the band the programmed path allows (both ways: each point of the new curve within
-the tolerance of the path near it, each point of the path within it of the curve point nearest it). To first
-order the new curvature is kappa + kappa^2 d + d''. A linear program (scipy's HiGHS) chooses d to lower the
+the tolerance of the path near it, each point of the path within it of the curve point nearest it). N is
+kept on one side all along, the curvature kappa signed to match: a fitted run's curvature may pass through
+zero, where the principal normal flips and offsets along it would zigzag (the spiral's first turn, whose fit
+wiggles: reshaped from there, the plan was 89 ms slower). To first order the new curvature is kappa + kappa^2 d
++ d''. A linear program (scipy's HiGHS) chooses d to lower the
 per-axis load kappa max_i |N_i| / A_i by a share g below its largest value within pi/8 of turning, g weighted by
 the time spent there and changing slowly along the stretch, with a small price on |d''| (without it the program
-picks any d the constraints at its points allow, rippling between them); d and d' are zero at the stretch's
+picks any d the constraints at its points allow, rippling between them) and a share of the time a shorter path
+saves (inward, the length falls by kappa d per mm); d and d' are zero at the stretch's
 ends, so it joins its neighbours with the same position and tangent. The offset curve is a clamped cubic spline
-through the offset points on the curve's own parameter, checked both ways against the programmed path (a
-stretch that misses the tolerance is tried with half the offset, then left as it was). ``faster_reshaped``
-keeps the stretches the time law passes faster, and only if the whole plan is faster.
+through the offset points on the curve's own parameter, checked both ways against the programmed path (where it
+misses the tolerance, the band is halved there and the program solved again, up to _NARROWINGS times; then the
+offset is halved all along, then the stretch left as it was: one miss 10 mm from a spiral's end had halved a
+1,600 mm stretch). ``faster_reshaped`` keeps the stretches the time law passes faster, and only if the whole
+plan is faster.
 
 Literature: the axis limits, not the programmed shape, choose the curve within the tolerance, as in Tajima and
 Sencer, "Kinematic corner smoothing for high speed machine tools", Int. J. Machine Tools and Manufacture 108
@@ -29,7 +35,9 @@ Int. J. Machine Tools and Manufacture 57 (2012). Fitted runs of short lines (flo
 turning is 1.5 pi or more are reshaped too, each stretch whole: held at both ends every _PART mm, a spiral's
 rounded squares (a quarter turn each, 75 mm at r = 48 mm) had no room. Their band both ways is the lines', so
 where the chords sag it is narrower (4 mm lines at r = 48 mm: about 0.03 mm either side of the curve through
-their middle).
+their middle). Near a fitted run's ends its curvature swings with the lines: there the program works from the
+load's mean over about a line (``_line_mean``), so it flattens the swings, and short gaps between bound samples
+are bridged (``_bridged``; spiral.ngc past its plunge: reshaped from 106.8 mm, not 118.8, 21.613 -> 21.603 s).
 
 Only for acceleration-limited (trapezoid) plans: the joins are tangent-continuous, not curvature-continuous.
 """
@@ -57,6 +65,7 @@ __all__ = ["reshape_curved", "faster_reshaped"]
 
 _SCAN = 0.5  # mm between the samples that find curvature-bound stretches
 _BOUND = 0.95  # a sample is curvature-bound where sqrt(A / load) is below this share of the speed cap
+_BRIDGE = 1.5  # mm: gaps this short between a fitted run's curvature-bound samples are bridged (``_bridged``)
 _MIN_LEN = 2.0  # mm: shorter stretches are left alone
 _MIN_TURN = 1.5 * math.pi  # and so are arcs turning less: with both ends held (d = d' = 0) too little is left
 # to reshape (the half-turns of benchmarks/planning.py's lines+arcs gained nothing, at 6 s of CPU for 100 of them)
@@ -69,9 +78,15 @@ _WINDOW_MAX = 40.0  # mm: and at most this far either way
 _GAIN_MAX = 0.3  # most share the load is lowered by
 _GAIN_SLOPE = 0.05  # most change of that share per 2 _REACH_TURN of turning (so the speed can follow it)
 _BENDING = 0.05  # the price of bending the offset, as a share of the load it may lower
+_SHORTER = 0.35  # share of the time a shorter path saves (to first order) that the linear program counts: the
+# speed follows the largest load near a point, not its own (spiral: 0.25-0.5 alike, 21.622 -> 21.613 s; 1.0 slower)
+_MEAN_LEN = 4.0  # mm either way of a point that a fitted run's load is averaged over (spiral.ngc's lines are 4 mm)
+_MEAN_TURN = 0.12  # and radians of turning at most (so at a small radius, a little more than a line's 4.5 degrees)
 _BAND_SHARE = 0.96  # of the tolerance the linear program plans for; the check holds the whole tolerance
 _CHECK_STEP = 0.01  # mm between the points the band and the deviation are worked out from
 _MARGIN = 1.0  # mm of path either side of a stretch that its check takes in
+_NARROWINGS = 3  # times a stretch's band is halved where its check fails, before its offset is halved all along
+_NARROW_REACH = 2.0  # mm either side of each point that fails the check where the band is halved
 _ONE_WAY = 0.9  # a fitted run is reshaped only if its net turning is this share of its total or more: a Gosper
 # curve's curls (flowsnake) net 1.5 pi and more, a rounded square is nothing to them, and their linear program took
 # 2 s (flowsnake.ngc) to 90 s (2,401 lines 0.0143 mm long) for no gain; a spiral's is about 1
@@ -145,16 +160,31 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
         return net * (u[1] - u[0]) if net >= _ONE_WAY * float(np.sum(np.linalg.norm(inside, axis=1))) else 0.0
 
     # arcs in parts of about _PART mm; fitted runs whole (a spiral's rounded squares reach over a quarter turn)
-    pieces = sorted(_pieces(curve, u, bound & on_arc, stops, arc_turn, _PART)
-                    + _pieces(curve, u, bound & ~on_arc, stops, fitted_turn, math.inf))  # in order: _splice needs it
-    if sum(curve.u1[kb] - curve.u0[ka] for ka, kb in pieces) < _LEAST_SHARE * curve.length:
+    pieces = sorted([(ka, kb, False) for ka, kb in _pieces(curve, u, bound & on_arc, stops, arc_turn, _PART)]
+                    + [(ka, kb, True) for ka, kb in _pieces(curve, u, _bridged(bound, ~on_arc), stops, fitted_turn, math.inf)])
+    if sum(curve.u1[kb] - curve.u0[ka] for ka, kb, _ in pieces) < _LEAST_SHARE * curve.length:
         return []
     found = []
-    for ka, kb in pieces:
-        got = _reshape_stretch(curve, raw, ka, kb, inv_a, tol)
+    for ka, kb, fitted in pieces:  # in order: _splice needs it
+        got = _reshape_stretch(curve, raw, ka, kb, inv_a, tol, fitted)
         if got is not None:
             found.append((ka, kb, got[0], (float(curve.u0[ka]), float(curve.u1[kb])), got[1]))
     return found
+
+
+def _bridged(bound: np.ndarray, fitted: np.ndarray) -> np.ndarray:
+    """``bound & fitted`` with gaps of at most _BRIDGE mm between its runs filled where ``fitted``: a fitted run's
+    curvature swings with the lines near its ends, so its bound samples flicker there (spiral.ngc's first turn
+    past the plunge: bound from 107 mm, 1 mm gaps at 110, 114 and 118 mm, and reshaped from 118.8 mm only)."""
+    mask = bound & fitted
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    gap_a, gap_b = edges[1:-1:2], edges[2::2]  # each gap: samples gap_a .. gap_b - 1
+    other = np.r_[0, np.cumsum(~fitted)]
+    short = (gap_b - gap_a <= round(_BRIDGE / _SCAN)) & (other[gap_b] == other[gap_a])  # and all on fitted runs
+    fill = np.zeros(len(mask) + 1, dtype=int)
+    np.add.at(fill, gap_a[short], 1)
+    np.add.at(fill, gap_b[short], -1)
+    return mask | (np.cumsum(fill)[:-1] > 0)
 
 
 def _pieces(curve: PlannedCurve, u: np.ndarray, bound: np.ndarray, stops: np.ndarray,
@@ -208,9 +238,10 @@ def _grid(curve: PlannedCurve, ka: int, kb: int) -> np.ndarray:
 
 
 def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, inv_a: np.ndarray,
-                     tol: float):
+                     tol: float, fitted: bool = False):
     """(spline, deviation) of the stretch over intervals ka .. kb reshaped, or None where nothing is gained or the
-    check fails."""
+    check fails. ``fitted``: a fitted run of short lines, whose load is taken as its mean over about a line
+    (``_line_mean``)."""
     from scipy.interpolate import CubicSpline  # on first use, as jerk_retime: a plan without such arcs needs none
     from scipy.optimize import linprog
     from scipy.sparse import coo_matrix
@@ -221,6 +252,13 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     p, d1 = _evaluate(curve, u, 1, (ka, kb))
     kappa, normal = _curvature(curve, u, (ka, kb))
     speed = np.linalg.norm(d1, axis=1)
+    # the normal on one side all along (a fitted run's curvature may pass through zero, where the principal
+    # normal flips), with the curvature signed to match
+    tangent = d1 / speed[:, None]
+    side = np.cross(np.sum(np.cross(tangent, kappa[:, None] * normal), axis=0), tangent)
+    flip = np.einsum("ij,ij->i", normal, side) < 0.0
+    normal[flip] *= -1.0
+    signed = np.where(flip, -kappa, kappa)
     s = np.r_[0.0, np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(u))]
     n = len(u)
     m = np.max(np.abs(normal) * inv_a, axis=1)
@@ -236,7 +274,7 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     lo_w = np.maximum(np.searchsorted(turn, turn - _REACH_TURN), np.searchsorted(s, s - _WINDOW_MAX))
     hi_w = np.minimum(np.searchsorted(turn, turn + _REACH_TURN, side="right"),
                       np.searchsorted(s, s + _WINDOW_MAX, side="right")) - 1
-    ref = window_max(load, lo_w, np.maximum(hi_w, lo_w))
+    ref = window_max(_line_mean(load, s, turn) if fitted else load, lo_w, np.maximum(hi_w, lo_w))
     # variables: d_0 .. d_n-1, g_0 .. g_n-1, e_0 .. e_n-1; rows: load_k + m_k (kappa_k^2 d_k + (D2 d)_k) <= (1 - g_k) ref_k
     hm, hp = np.diff(s)[:-1], np.diff(s)[1:]
     k = np.arange(1, n - 1)
@@ -244,7 +282,7 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     rows = np.concatenate([k - 1, k - 1, k - 1, k - 1, k - 1])
     cols = np.concatenate([k - 1, k, k + 1, k, n + k])
     vals = np.concatenate([m[k] * c_lo, -m[k] * (c_lo + c_hi), m[k] * c_hi, m[k] * kappa[k] ** 2, ref[k]])
-    rhs = ref[k] - load[k]
+    rhs = ref[k] - m[k] * signed[k]
     # the share changes slowly: |g_k+1 - g_k| <= slope * turning between them (and a little per mm)
     step = _GAIN_SLOPE * (np.diff(turn) / (2 * _REACH_TURN) + np.diff(s) / (4 * _WINDOW_MAX))
     j = np.arange(n - 1)
@@ -264,19 +302,38 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     rhs = np.concatenate([rhs, np.zeros(2 * (n - 2))])
     a_ub = coo_matrix((vals, (rows, cols)), shape=(len(rhs), 3 * n)).tocsr()
     weight = np.gradient(s) * np.sqrt(np.maximum(ref, 1e-300))  # time ~ ds sqrt(load)
-    cost = np.r_[np.zeros(n), -weight, _BENDING * weight * m / np.maximum(ref, 1e-300)]
+    # moved inward by d the path is shorter by kappa d per mm: with time ~ ds sqrt(load), worth 2 kappa d in g's units
+    cost = np.r_[-_SHORTER * 2.0 * weight * signed, -weight, _BENDING * weight * m / np.maximum(ref, 1e-300)]
     bounds = np.c_[np.r_[lo, np.zeros(2 * n)], np.r_[hi, np.full(n, _GAIN_MAX), np.full(n, np.inf)]]
     bounds[n:n + 2, 1] = bounds[2 * n - 2:2 * n, 1] = 0.0
-    res = linprog(cost, A_ub=a_ub, b_ub=rhs, bounds=bounds, method="highs")
-    if res.status != 0 or float(weight @ res.x[n:2 * n]) < 1e-3 * float(weight.sum()) * _GAIN_SLOPE:
-        return None
-    d = res.x[:n]
-    for share in (1.0, 0.5):
-        spline = CubicSpline(u - ua, p + (share * d)[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
-        dev = _deviation(spline, ua, ub, curve, near, programmed)
+    if fitted:  # where the load is above its mean, the share may be negative: those points are not flattened
+        bounds[n:2 * n, 0] = -_GAIN_MAX
+    for _ in range(_NARROWINGS + 1):  # where the check fails, the band is narrowed there and the program solved again
+        res = linprog(cost, A_ub=a_ub, b_ub=rhs, bounds=bounds, method="highs")
+        if res.status != 0 or float(weight @ res.x[n:2 * n]) < 1e-3 * float(weight.sum()) * _GAIN_SLOPE:
+            return None
+        d = res.x[:n]
+        spline = CubicSpline(u - ua, p + d[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
+        dev, miss = _deviation(spline, ua, ub, curve, near, programmed, tol)
         if dev <= tol:
             return spline, dev
-    return None
+        miss = np.sort(np.r_[miss, np.inf])
+        bounds[:n][miss[np.searchsorted(miss, u - ua - _NARROW_REACH)] <= u - ua + _NARROW_REACH] *= 0.5
+    spline = CubicSpline(u - ua, p + 0.5 * d[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
+    dev = _deviation(spline, ua, ub, curve, near, programmed, tol)[0]
+    return (spline, dev) if dev <= tol else None
+
+
+def _line_mean(load: np.ndarray, s: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """The load's mean over _MEAN_LEN mm and _MEAN_TURN of turning either way of each point. Near a fitted run's
+    ends, where its smoothing is cut, its curvature swings with the programmed lines (past spiral.ngc's plunge
+    0.0004-0.044 /mm about 0.0197); taken from the load itself, the largest value near a point counts those swings
+    as room to spare, and the linear program leaves them; from the mean, it flattens them."""
+    area = np.r_[0.0, np.cumsum(0.5 * (load[1:] + load[:-1]) * np.diff(s))]
+    lo = np.maximum(np.searchsorted(s, s - _MEAN_LEN), np.searchsorted(turn, turn - _MEAN_TURN))
+    hi = np.minimum(np.searchsorted(s, s + _MEAN_LEN, side="right"), np.searchsorted(turn, turn + _MEAN_TURN, side="right")) - 1
+    wide = s[hi] - s[lo] > 0.0
+    return np.where(wide, (area[hi] - area[lo]) / np.where(wide, s[hi] - s[lo], 1.0), load)
 
 
 def _band(p: np.ndarray, normal: np.ndarray, tangent: np.ndarray, around: np.ndarray, near: cKDTree,
@@ -305,19 +362,31 @@ def _room(r: np.ndarray, normal: np.ndarray, tangent: np.ndarray, tol: float) ->
 
 
 def _dense(points_of, a: float, b: float) -> np.ndarray:
-    return points_of(np.linspace(a, b, max(3, int(math.ceil((b - a) / _CHECK_STEP)) + 1)))
+    return points_of(np.linspace(a, b, _count(b - a)))
 
 
 def _deviation(spline: CubicSpline, ua: float, ub: float, curve: PlannedCurve, near: cKDTree,
-               programmed: np.ndarray) -> float:
+               programmed: np.ndarray, tol: float) -> tuple[float, np.ndarray]:
     """Largest distance, both ways, between the reshaped stretch (with a little of the curve either side) and
     the programmed path it stands for, both as points _CHECK_STEP apart: distances to the nearest point, each
-    at most sqrt(d^2 + (step/2)^2) over the distance to the polyline through them (3e-4 mm at 0.05 mm)."""
+    at most sqrt(d^2 + (step/2)^2) over the distance to the polyline through them (3e-4 mm at 0.05 mm). With it,
+    the spline's parameters (from ua) where either distance exceeds ``tol``."""
     from scipy.spatial import cKDTree
 
-    pts = np.vstack([_dense(curve.points, max(0.0, ua - _MARGIN), ua), _dense(spline, 0.0, ub - ua),
-                     _dense(curve.points, ub, min(curve.length, ub + _MARGIN))])
-    return max(float(near.query(pts)[0].max()), float(cKDTree(pts).query(programmed)[0].max()))
+    x = np.r_[np.linspace(-min(_MARGIN, ua), 0.0, _count(min(_MARGIN, ua))), np.linspace(0.0, ub - ua, _count(ub - ua)),
+              np.linspace(ub - ua, min(curve.length, ub + _MARGIN) - ua, _count(min(curve.length - ub, _MARGIN)))]
+    inside = (x >= 0.0) & (x <= ub - ua)
+    pts = np.empty((len(x), 3))
+    pts[inside] = spline(x[inside])
+    pts[~inside] = curve.points(ua + x[~inside])
+    out = near.query(pts)[0]
+    back, foot = cKDTree(pts).query(programmed)
+    miss = np.clip(np.r_[x[out > tol], x[foot[back > tol]]], 0.0, ub - ua)
+    return max(float(out.max()), float(back.max())), miss
+
+
+def _count(length: float) -> int:
+    return max(3, int(math.ceil(length / _CHECK_STEP)) + 1)
 
 
 _FIELDS = ("kind", "coef", "centre", "e1", "e2", "w", "radius", "phi0", "dphi", "rise")
