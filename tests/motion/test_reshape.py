@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from flowmc.motion.machine import Axis, Machine
 from flowmc.motion.metrics import contour_error, coverage_error, peak_ratio, programmed_polyline
@@ -92,23 +93,18 @@ def test_a_curly_run_is_not_reshaped():
     assert reshape_curved(sm.curve, raw_curve(path)[0], sm.stop_u, sm.seg_feed, lim, fit_tolerance(lim, TOL)) == []
 
 
+@pytest.mark.linuxcnc  # spiral.ngc comes with LinuxCNC's package (a skipped linuxcnc test fails the suite)
 def test_a_fitted_run_whose_curvature_passes_through_zero_is_offset_on_one_side():
     # LinuxCNC's spiral.ngc: past the plunge's corner the fit of its 4 mm lines wiggles, its curvature passing
     # through zero (the principal normal flips there); offsets along a flipping normal zigzag, and reshaped from
     # u = 106 mm the plan was 89 ms slower than not reshaped; offset on one side it is faster
-    import pytest
-
     from flowmc.motion.gcode import read_gcode
     from flowmc.motion.limits import PathLimits
     from flowmc.motion.planner import _feed, plan_time_law
     from flowmc.motion.reshape import _clock, _reshape_stretch, _splice
     from flowmc.motion.smoothing import fit_tolerance, raw_curve, smooth_path
 
-    file = "/usr/share/linuxcnc/ncfiles/spiral.ngc"
-    try:
-        path = read_gcode(file).with_feed(200.0)
-    except OSError:
-        pytest.skip(f"{file} is not installed")
+    path = read_gcode("/usr/share/linuxcnc/ncfiles/spiral.ngc").with_feed(200.0)
     lim = PathLimits.of(machine())
     sm = smooth_path(path, lim, TOL)
     curve = sm.curve
