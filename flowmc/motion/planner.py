@@ -29,7 +29,7 @@ from flowmc.motion.pieces import _check_axes
 from flowmc.motion.reshape import faster_reshaped
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
-from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law, sampled_jerk
+from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law, sampled_accel, sampled_jerk
 from flowmc.motion.trajectory import Trajectory
 
 __all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
@@ -37,6 +37,8 @@ __all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
 PROFILES = ("trapezoid", "scurve")
 _BLEND_SHARE = 0.015  # lone corners are weighed for blends where stops at them make up this share of the plan
 _BLEND_SLACK = 0.02  # a blended jerk-limited plan is retimed when its time law takes at most this much longer
+_TIGHT_REACH = (0.5, 2.0, 8.0, np.inf)  # mm of curve parameter either side of samples over amax where a trapezoid
+# law is planned again under the normal terms' own cap, round by round
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,9 +121,10 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
     """The time law on a smoothed curve (``known``: the trapezoid law already worked out for it) and its samples."""
     curve = sm.curve
 
-    def planned(mend_swings: bool):
-        law = known if known is not None else plan_time_law(
-            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=jerk, mend_swings=mend_swings)
+    def planned(mend_swings: bool, tight=None):
+        law = known if known is not None and tight is None else plan_time_law(
+            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=jerk,
+            mend_swings=mend_swings, tight=tight)
         u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
         pos = curve.points(u)
         pos[0], pos[-1] = path.start, path.end
@@ -130,6 +133,15 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
     law, u, dwell_seg, pos = planned(not jerk)
     if jerk and sampled_jerk(pos[:, list(lim.cols)], lim) > 1.0:
         law, u, dwell_seg, pos = planned(True)  # a swing of the acceleration broke the jerk limit: mend them all
+    tight = np.zeros((0, 2))
+    for reach in () if jerk else _TIGHT_REACH:
+        # above the normal terms' own cap the law keeps the limits at three points of each interval only: where
+        # a sample breaks one, that cap again about it (the last reach: everywhere, the law before branch spiral12)
+        over = sampled_accel(pos[:, list(lim.cols)], lim)
+        if not over.size:
+            break
+        tight = np.r_[tight, np.c_[u[over - 1] - reach, u[over + 1] + reach]]
+        law, u, dwell_seg, pos = planned(True, tight)
     return law, u, dwell_seg, pos
 
 

@@ -28,7 +28,12 @@ opposite signs, the tool slowing into a turn on the axis the turn speeds up; TOP
 constraints, linear in (a, v^2)), so the largest speed^2 a node may have given the next one's is an affine
 map per axis and point, and the fastest profile that keeps every interval's budgets at its own speeds
 is one backward and one forward pass of y_k = min(cap_k, min_i(a_ik y_{k+1} + b_ik)), solved exactly
-(``_greatest``, flowmc.motion.capped_recursion). Any profile the iteration gives keeps those budgets too,
+(``_greatest``, flowmc.motion.capped_recursion). Its cap is not the normal terms' own (min_i amax_i / |K_i|,
+where the tool may still hold its speed) but the largest speed^2 at which some path acceleration keeps every
+axis within its limit (``_tangent_cap``): a corner parabola is passed with both axes at their limits all
+through it, above the normal terms' own cap at its quarter points. The budgets hold at three points of each
+interval; where a sample breaks a limit between them, flowmc.motion.planner plans the law again with the
+normal terms' own cap about it (``tight``). Any profile the iteration gives keeps those budgets too,
 so this one is at least as fast at every node; so is it than any planned with the caps lower (a profile
 under lower caps keeps the same budgets under these).
 
@@ -62,9 +67,10 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
 from flowmc.motion.sample_clock import setpoint_times
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "arc_length_at", "speed_at",
+__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_accel", "sampled_jerk", "arc_length_at", "speed_at",
            "frame"]
 
+_ACCEL_SLACK = 1e-7  # sampled accelerations this share over amax are rounding (the plans before: up to 5e-8)
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
 _ROUNDS = 20
 _REACH_PROFILE_ROUNDS = 4
@@ -320,6 +326,35 @@ def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[
     return y_vel, y_acc
 
 
+def _tangent_cap(g: _Geometry, lim: PathLimits) -> np.ndarray:
+    """Largest speed^2 at each point for which some path acceleration keeps every axis within its limit
+    (-amax_i <= T_i a + K_i y <= amax_i): on a moving axis a lies in [-alpha_i - c_i y, alpha_i - c_i y],
+    alpha_i = amax_i / |T_i|, c_i = sign(T_i) K_i / |T_i|, and these meet while (c_j - c_i) y <= alpha_i + alpha_j
+    for every pair; an axis that does not move caps y at amax_i / |K_i|. Above the normal terms' own cap
+    amax_i / |K_i| the tool must speed up or slow down there (a parabola's corner blend entered at the speed
+    it was sized for: both axes at their limits all through it, the speed below that cap nowhere)."""
+    moving = g.t > 1e-9
+    with np.errstate(divide="ignore", invalid="ignore"):
+        alpha = np.where(moving, lim.amax / np.where(moving, g.t, 1.0), np.inf)
+        c = np.where(moving, g.kt / np.where(moving, g.t, 1.0), 0.0)
+        y = np.min(np.where(~moving & (g.k > 0), lim.amax / np.where(g.k > 0, g.k, 1.0), np.inf), axis=1)
+        for i in range(3):
+            for j in range(3):
+                d = c[:, j] - c[:, i]
+                ok = moving[:, i] & moving[:, j] & (d > 0)
+                y = np.minimum(y, np.where(ok, (alpha[:, i] + alpha[:, j]) / np.where(ok, d, 1.0), np.inf))
+    return y
+
+
+def _within(u: np.ndarray, ranges: np.ndarray | None) -> np.ndarray:
+    """Per grid interval of nodes ``u``: whether it overlaps any of ``ranges`` ((n, 2): lo, hi)."""
+    mark = np.zeros(len(u), dtype=int)
+    if ranges is not None and len(ranges):
+        np.add.at(mark, np.maximum(np.searchsorted(u, ranges[:, 0], side="right") - 1, 0), 1)
+        np.add.at(mark, np.minimum(np.searchsorted(u, ranges[:, 1]), len(u) - 1), -1)
+    return np.cumsum(mark)[:-1] > 0
+
+
 class _Budgets:
     """Largest path acceleration and deceleration on every grid interval for any speed^2 up to a level Y.
 
@@ -488,14 +523,17 @@ def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budg
 
 
 def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
-                  feed_of_u, lim: PathLimits, *, jerk: bool = False, mend_swings: bool = True) -> TimeLaw:
+                  feed_of_u, lim: PathLimits, *, jerk: bool = False, mend_swings: bool = True,
+                  tight: np.ndarray | None = None) -> TimeLaw:
     """The fastest time law on ``curve`` under ``lim`` (see the module docstring).
 
     ``feed_of_u(u)`` gives the path-speed cap at curve parameters u; ``stop_u`` are parameters where the
     tool rests (with ``stop_dwell`` seconds, owned by dwell segment ``stop_segment`` or -1).
     ``mend_swings=False`` (jerk-limited laws only) skips step 2 of ``_filterable``, whose bound stacks every
     term at its worst: faster, and usually within the jerk limit anyway, which the caller then checks from
-    the samples (``sampled_jerk``).
+    the samples (``sampled_jerk``). Without a jerk limit the speed may pass the normal terms' own cap where a
+    path acceleration keeps every axis within its limit (``_tangent_cap``), except over the curve parameter
+    ranges ``tight`` ((n, 2): lo, hi), where the caller found its samples over a limit (``sampled_accel``).
     """
     u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP, _TURN_STEP if jerk else _TURN_STEP_TRAPEZOID)
     du = np.diff(u)
@@ -513,6 +551,8 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     y_vel, y_acc = np.min(y_vel.reshape(3, m), axis=0), np.min(y_acc.reshape(3, m), axis=0)
+    if not jerk:
+        y_acc = np.where(_within(u, tight), y_acc, np.min(_tangent_cap(geo, lim).reshape(3, m), axis=0))
     cap = np.minimum(y_vel, _RHO * y_acc)
     stops = np.searchsorted(u, stop_u)
     if not jerk:
@@ -836,6 +876,16 @@ def speed_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> np.ndarray:
     if law.window <= 0:
         return unfiltered(ts)
     return (ph.s(ts) - ph.s(ts - law.window)) / law.window
+
+
+def sampled_accel(positions: np.ndarray, lim: PathLimits) -> np.ndarray:
+    """Setpoints (indices of ``positions``, the machine's columns, period ``lim.period``) whose per-axis
+    acceleration by second differences, as a device sees it, is over amax by more than rounding."""
+    cols = list(lim.cols)
+    if len(positions) < 3:
+        return np.zeros(0, dtype=int)
+    over = np.abs(np.diff(positions, 2, axis=0)) > lim.amax[cols] * lim.period**2 * (1.0 + _ACCEL_SLACK)
+    return np.flatnonzero(np.any(over, axis=1)) + 1
 
 
 def sampled_jerk(positions: np.ndarray, lim: PathLimits) -> float:

@@ -199,6 +199,27 @@ def test_a_right_angle_is_passed_on_the_per_axis_optimal_parabola_laid_in_the_mo
     assert 0.9 * TOL < max(to_path, from_path) <= TOL
 
 
+def test_a_corner_parabola_is_entered_at_the_speed_it_was_sized_for():
+    # a plunge along -Z, then along +Y (spiral.ngc's first corner): on the parabola both axes change speed at
+    # their limit all through it, so its speed at the quarter points lies above the normal terms' own cap
+    # (with the speed held there, one axis would be over its limit); the trapezoid law may pass that cap where
+    # a path acceleration keeps every axis within its limit, so the blend is entered at about the speed it was
+    # sized for (10.8 mm/s before, under that cap), and the samples keep every limit
+    path = Path.polyline([[0, 0, 20], [0, 0, 0], [0, 30, 0]], feed=200.0)
+    p = plan_smooth(path, machine(period=0.001))
+    curve = p.smoothed.curve
+    assert p.smoothed.blends == 1 and int(np.sum(curve.kind == 0)) == 3
+    tol_fit = 0.99 * (TOL - 200.0 * 0.001**2 / 8.0)
+    v = math.sqrt(4 * tol_fit * (1 + math.sqrt(2)) / (math.sin(math.pi / 4) / 200.0))
+    entry = int(np.searchsorted(p.u, curve.u0[1]))
+    assert p.trajectory.speed()[entry] > 0.97 * v
+    acc = np.abs(np.diff(p.trajectory.positions, 2, axis=0)) / 0.001**2
+    assert acc.max() <= 200.0 * (1 + 1e-7)
+    # both Y and Z near their limit through the blend's middle half, not one of them only
+    lo, hi = np.searchsorted(p.u, curve.u0[1] + np.array([0.25, 0.75]) * (curve.u1[1] - curve.u0[1]))
+    assert acc[lo:hi, 1:].min() > 0.95 * 200.0
+
+
 def _rot(v, angle):
     c, s = math.cos(angle), math.sin(angle)
     return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
@@ -420,7 +441,9 @@ def test_the_trapezoid_law_keeps_every_budget_at_its_own_speeds_and_is_nowhere_s
     # the exact passes on star10's fitted curve: every interval's change of speed^2 within the budgets taken at its
     # own speeds (per axis, at its start and end each point's own terms at that end's speed, at its middle the
     # hurting normal term at the larger end's, the helping one at the smaller's), and at every node at least the
-    # speed the alternating iteration (the jerk-limited law's, each term at its worst over the three) reaches
+    # speed the alternating iteration (the jerk-limited law's, each term at its worst over the three) reaches under
+    # the normal terms' own cap (the iteration's premise: below it the tool may hold its speed; the exact law's cap
+    # may be higher, where a path acceleration keeps every axis within its limit)
     import flowmc.motion.timelaw as timelaw
 
     seen = []
@@ -446,6 +469,10 @@ def test_the_trapezoid_law_keeps_every_budget_at_its_own_speeds_and_is_nowhere_s
                 pull = np.sign(a) * kt[q]
                 at = np.where(pull > 0, hi, lo) if y_p is None else y_p
                 assert np.all(t[q] * np.abs(a) + pull * at <= budgets.amax[i] * (1 + 1e-9) + 1e-9)
-        iterated = timelaw._profile(cap, stops, ds, budgets)[0]
+        k = budgets.geo.k
+        with np.errstate(divide="ignore"):
+            own = np.min(np.where(k > 0, budgets.amax / np.where(k > 0, k, 1.0), np.inf), axis=1)
+        iterated = timelaw._profile(np.minimum(cap, timelaw._RHO * np.min(own.reshape(3, m), axis=0)), stops, ds,
+                                    budgets)[0]
         assert np.all(y >= iterated * (1 - 1e-9))
         assert timelaw._node_times(y, ds)[-1] < timelaw._node_times(iterated, ds)[-1]
