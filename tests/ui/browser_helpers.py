@@ -172,8 +172,25 @@ class EditorPage:
         self.click_world(spot.x, spot.y)
 
     def wire(self, src: str, dst: str) -> None:
+        """Click the output ``src``, then the input ``dst`` ("node.port"), as a person would: the second click
+        only once the editor has the first port picked. Under load a click can go unanswered (CI saw one wire
+        of three missing, its two clicks 10 ms apart); one more click then, as a person would, and a clear
+        failure if that is lost too."""
         (sn, sp), (dn, dp) = src.split("."), dst.split(".")
-        self.click_port(sn, "out", sp)
+        canvas = self.editor.canvas
+
+        def picked() -> bool:
+            hit = canvas.pending
+            return hit is not None and hit.port is not None and (hit.node_id, hit.port.name, hit.port.kind) == (sn, sp, "out")
+        self.settled()
+        for attempt in range(2):
+            self.click_port(sn, "out", sp)
+            try:
+                wait_until(picked, 5.0 if attempt == 0 else 15.0, f"the editor to pick {src} (a click on it)")
+                break
+            except AssertionError:
+                if attempt:
+                    raise
         self.click_port(dn, "in", dp)
 
 

@@ -53,7 +53,7 @@ def test_palette_wire_run_3d_view_save_and_reload(browser, editor, tmp_path):
     join = add_from_palette(ui, "join", "Join")
     assert [editor.state.node(n).type for n in (shift2, line, join)] == ["path.translate", "path.polyline", "path.join"]
     page.get_by_role("button", name="Fit", exact=True).click()
-    page.wait_for_timeout(400)
+    ui.settled()
 
     for src, dst in ((f"{line}.path", f"{shift2}.path"), (f"{shift2}.path", f"{join}.path1"), ("both.path", f"{join}.path2")):
         ui.wire(src, dst)
@@ -61,7 +61,7 @@ def test_palette_wire_run_3d_view_save_and_reload(browser, editor, tmp_path):
 
     before = len(editor.state.graph.wires)
     ui.wire(f"{line}.path", f"{shift2}.dx")  # a Path into a Number param: refused
-    page.get_by_text(re.compile(r"is a Path, but input 'dx'.*takes Number")).first.wait_for(timeout=10000)
+    page.get_by_text(re.compile(r"is a Path, but input 'dx'.*takes Number")).filter(visible=True).first.wait_for(timeout=10000)
     assert len(editor.state.graph.wires) == before
 
     page.get_by_role("button", name="Run", exact=True).click()
