@@ -469,8 +469,39 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     tool rests (with ``stop_dwell`` seconds, owned by dwell segment ``stop_segment`` or -1).
     ``mend_swings=False`` (jerk-limited laws only) skips step 2 of ``_filterable``, whose bound stacks every
     term at its worst: faster, and usually within the jerk limit anyway, which the caller then checks from
-    the samples (``sampled_jerk``).
+    the samples (``sampled_jerk``; ``plan_jerk_limited`` mends only then).
     """
+    if jerk:
+        law, mended = plan_jerk_limited(curve, stop_u, stop_dwell, stop_segment, feed_of_u, lim)
+        return mended() if mend_swings else law
+    u, s, ds, speed_u, stops, geo, cap = _laid_out(curve, stop_u, feed_of_u, lim, jerk=False)
+    y = _greatest(cap, stops, ds, _Budgets(geo, len(ds), lim, 0.0))
+    return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, 0.0, lim.period)
+
+
+def plan_jerk_limited(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
+                      feed_of_u, lim: PathLimits):
+    """The jerk-limited law with its swings unmended, and a function that gives it mended: that one goes on
+    from where the unmended one stopped (grid, geometry, profiles and the first round of ``_filterable`` are
+    the same), and is the unmended law itself where no swing needed mending."""
+    u, s, ds, speed_u, stops, geo, cap = _laid_out(curve, stop_u, feed_of_u, lim, jerk=True)
+    tries = _JerkLimited(cap, stops, stop_dwell, ds, geo, lim)
+
+    def law_of(mend_swings: bool) -> TimeLaw:
+        y, window = tries.best(mend_swings)
+        return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, window,
+                       lim.period)
+
+    first = law_of(False)
+
+    def mended() -> TimeLaw:
+        law = law_of(True)
+        return first if law.y is first.y and law.window == first.window else law
+    return first, mended
+
+
+def _laid_out(curve: PlannedCurve, stop_u: np.ndarray, feed_of_u, lim: PathLimits, jerk: bool):
+    """The grid (u, s, ds, ds/du at the nodes, stop nodes), its geometry and its speed^2 caps."""
     u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP, _TURN_STEP if jerk else _TURN_STEP_TRAPEZOID)
     du = np.diff(u)
     if np.any(du <= 0):
@@ -483,53 +514,63 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     ds = 0.5 * du * (np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(m, -1) @ _GL3_W)
     s = np.concatenate([[0.0], np.cumsum(ds)])
     geo, sp = _geometry(curve, u, k_iv, lim.cols, third=jerk)
-    speed_u = np.r_[sp[:m], sp[-1]]
     feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     y_vel, y_acc = np.min(y_vel.reshape(3, m), axis=0), np.min(y_acc.reshape(3, m), axis=0)
     cap = np.minimum(y_vel, _RHO * y_acc)
-    stops = np.searchsorted(u, stop_u)
-    if not jerk:
-        y = _greatest(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
-        window = 0.0
-    else:
-        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
-    accel = np.diff(y) / (2.0 * ds)
-    return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
+    return u, s, ds, np.r_[sp[:m], sp[-1]], np.searchsorted(u, stop_u), geo, cap
 
 
-def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray, geo: _Geometry,
-                  m: int, lim: PathLimits, mend_swings: bool = True) -> tuple[np.ndarray, float]:
-    """The jerk-limited profile and its filter length Tj.
+class _JerkLimited:
+    """The jerk-limited profile and its filter length Tj, swings mended or not.
 
     The filter allows an acceleration jump of jmax Tj within Tj, so Tj = amax / jmax lets the tangential
     acceleration reach amax on straight stretches. Where curvature terms hold the tangential budget far
     below that anyway (dense, tightly curved code: the motion spends less than _SHORT_WINDOW_USE of its
     time above half of it), a window half as long costs little acceleration and halves every reach (caps
     are taken over the stretch the window spans) and every rest at a stop; both are planned then, and the
-    one with the shorter motion (rests included) is kept."""
-    base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
-    best: tuple[float, np.ndarray, float] | None = None
-    for share in _WINDOWS:
-        window = share * base
-        budget_of = _Budgets(geo, m, lim, window)
-        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window, lim.period)
-        y, _ = _profile(cap, stops, ds, budget_of)
-        y = _filterable(y, cap, budget_of, stops, ds, window, rest, mend_swings)
-        dt = np.diff(_node_times(y, ds))
-        total = float(dt.sum() + rest.sum()) + window
-        if best is None or total < best[0]:
-            best = (total, y, window)
-        full = _JERK_SHARE * float(np.min(lim.jmax[list(lim.cols)])) * window  # the straight-line budget
-        if float(dt[np.abs(np.diff(y) / (2.0 * ds)) > 0.5 * full].sum()) >= _SHORT_WINDOW_USE * dt.sum():
-            break
-    assert best is not None
-    return best[1], best[2]
+    one with the shorter motion (rests included) is kept. Each window's rounds of ``_filterable`` are
+    planned once, as far as asked: the unmended profile is the mended one's first round."""
+
+    def __init__(self, cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray,
+                 geo: _Geometry, lim: PathLimits):
+        self.cap, self.stops, self.stop_dwell, self.ds, self.geo, self.lim = cap, stops, stop_dwell, ds, geo, lim
+        self.base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
+        self.rounds: dict[float, tuple] = {}  # share -> (window, rest, its rounds, their profiles so far)
+
+    def _filtered(self, share: float, mend_swings: bool) -> tuple[float, np.ndarray, np.ndarray]:
+        if share not in self.rounds:
+            window = share * self.base
+            budget_of = _Budgets(self.geo, len(self.ds), self.lim, window)
+            rest = _stop_waits(len(self.ds) + 1, self.stops, self.stop_dwell, window, self.lim.period)
+            y, _ = _profile(self.cap, self.stops, self.ds, budget_of)
+            rounds = _filterable(y, self.cap, budget_of, self.stops, self.ds, window, rest)
+            self.rounds[share] = (window, rest, rounds, [next(rounds)])
+        window, rest, rounds, ys = self.rounds[share]
+        if mend_swings:
+            ys.extend(rounds)
+        return window, rest, ys[-1] if mend_swings else ys[0]
+
+    def best(self, mend_swings: bool) -> tuple[np.ndarray, float]:
+        ds, lim = self.ds, self.lim
+        best: tuple[float, np.ndarray, float] | None = None
+        for share in _WINDOWS:
+            window, rest, y = self._filtered(share, mend_swings)
+            dt = np.diff(_node_times(y, ds))
+            total = float(dt.sum() + rest.sum()) + window
+            if best is None or total < best[0]:
+                best = (total, y, window)
+            full = _JERK_SHARE * float(np.min(lim.jmax[list(lim.cols)])) * window  # the straight-line budget
+            if float(dt[np.abs(np.diff(y) / (2.0 * ds)) > 0.5 * full].sum()) >= _SHORT_WINDOW_USE * dt.sum():
+                break
+        assert best is not None
+        return best[1], best[2]
 
 
 def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
-                window: float, rest: np.ndarray, mend_swings: bool = True) -> np.ndarray:
-    """The profile made fit for the moving average over Tj.
+                window: float, rest: np.ndarray):
+    """The profile made fit for the moving average over Tj: yields it after every round (the first is the
+    unmended profile; the last, mended), each worked out only when asked for.
 
     1. The filtered motion at time t averages the unfiltered one over [t - Tj, t], so wherever it is,
        the unfiltered motion it averages lies within Tj of the time that motion passed there: every cap
@@ -540,13 +581,13 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     2. The jerk of the filtered motion is (a(t) - a(t - Tj)) / Tj. The budgets allow a jump of one
        budget within Tj. A swing further than that (speeding up within Tj of slowing down) is mostly a
        peak: those are cut flat for Tj (``_flatten_peaks``). Wherever a swing remains, the intervals
-       involved get budgets safe for a swing of twice the budget, and it is planned again (only with
-       ``mend_swings``; flowmc.motion.planner checks the samples of a law planned without).
+       involved get budgets safe for a swing of twice the budget, and it is planned again (mending;
+       flowmc.motion.planner checks the samples of a law planned without).
     """
     m = len(ds)
     swing = np.zeros(m, dtype=bool)
     fastest = y
-    for _ in range(_SWING_ROUNDS if mend_swings else 1):
+    for _ in range(_SWING_ROUNDS):
         y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
@@ -557,6 +598,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
                 break
             node_cap = np.minimum(node_cap, lowered)
             y = _scan(np.minimum(node_cap, y), ds, budget_e)
+        yield y
         depart = _node_times(y, ds) + np.cumsum(rest)  # the rests at stops (sample_time_law) separate too
         arrive = depart - rest
         a = np.diff(y) / (2.0 * ds)
@@ -570,15 +612,14 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
         over = ((window_max(a, p_lo, p_hi) - a > allowed * (1 + 1e-9))
                 | (a - window_min(a, p_lo, p_hi) > allowed * (1 + 1e-9)))
         over &= ~swing & has
-        if not mend_swings or not over.any():
-            break
+        if not over.any():
+            return
         # mark each offending interval and its partners (a difference array over the ranges)
         k = np.flatnonzero(over)
         mark = np.zeros(m + 1, dtype=int)
         np.add.at(mark, p_lo[k], 1)
         np.add.at(mark, p_hi[k] + 1, -1)
         swing |= (np.cumsum(mark)[:m] > 0) | over
-    return y
 
 
 def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.ndarray, stops: np.ndarray,
