@@ -586,9 +586,9 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     """
     m = len(ds)
     swing = np.zeros(m, dtype=bool)
-    fastest = y
+    fastest, own = y, _reach(y, cap, ds, window, rest)
     for _ in range(_SWING_ROUNDS):
-        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest)
+        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest, own)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
         node_cap[stops] = 0.0
@@ -623,8 +623,30 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
 
 
 def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.ndarray, stops: np.ndarray,
-                  ds: np.ndarray, window: float, rest: np.ndarray):
-    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval).
+                  ds: np.ndarray, window: float, rest: np.ndarray, own: tuple):
+    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval). ``own``: ``_reach``
+    of ``fastest``, the same in every round of _filterable."""
+    def planned(faster: np.ndarray, limit: np.ndarray | None, known: tuple | None = None):
+        lo, hi, windows, capped = known if known is not None else _reach(faster, cap, ds, window, rest)
+
+        def reach_budget(level):
+            return tuple(windows.min(b) for b in budget_of(level, swing))
+
+        y, budget = _profile(capped, stops, ds, reach_budget, node_limit=limit, rounds=_REACH_PROFILE_ROUNDS)
+        return y, budget, (lo, hi)
+
+    high, known = fastest, own
+    for _ in range(_REACH_ROUNDS):
+        y, budget, reach = planned(high, high, known)
+        if _converged(high, y):
+            break
+        high, known = np.maximum(planned(y, None)[0], y), None
+    return y, budget, reach
+
+
+def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, rest: np.ndarray) -> tuple:
+    """The reach of every interval under profile ``faster`` (lo, hi), its ``Windows`` (every round of a profile
+    takes minima over them) and the cap's minima over them.
 
     The reach of interval k: every interval the filtered motion is on while its window holds some of the
     time spent on k. The window holds it from the time the motion leaves node k until Tj after it reaches
@@ -633,37 +655,17 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
     profile (faster at every s) gives a wider reach: the window's average lies further back and ahead."""
     m = len(ds)
     s_nodes = np.concatenate([[0.0], np.cumsum(ds)])
-    no_owner = np.full(m + 1, -1)
-
-    def reach_of(faster: np.ndarray):
-        ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, no_owner)
-        depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
-        arrive = ph.start[0::2]
-        times = np.concatenate([depart[:-1], arrive[1:] + window])
-        filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
-        lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
-        hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
-        k = np.arange(m)
-        return np.minimum(lo, k), np.maximum(hi, k)
-
-    def planned(faster: np.ndarray, limit: np.ndarray | None):
-        lo, hi = reach_of(faster)
-        windows = Windows(lo, hi, m)  # every round of the profile takes minima over these windows
-
-        def reach_budget(level):
-            return tuple(windows.min(b) for b in budget_of(level, swing))
-
-        y, budget = _profile(windows.min(cap), stops, ds, reach_budget, node_limit=limit,
-                             rounds=_REACH_PROFILE_ROUNDS)
-        return y, budget, (lo, hi)
-
-    high = fastest
-    for _ in range(_REACH_ROUNDS):
-        y, budget, reach = planned(high, high)
-        if _converged(high, y):
-            break
-        high = np.maximum(planned(y, None)[0], y)
-    return y, budget, reach
+    ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, np.full(m + 1, -1))
+    depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
+    arrive = ph.start[0::2]
+    times = np.concatenate([depart[:-1], arrive[1:] + window])
+    filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
+    lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
+    hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
+    k = np.arange(m)
+    lo, hi = np.minimum(lo, k), np.maximum(hi, k)
+    windows = Windows(lo, hi, m)
+    return lo, hi, windows, windows.min(cap)
 
 
 def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
