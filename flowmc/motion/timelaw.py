@@ -772,11 +772,16 @@ class _Phases:
         cum = self._cumulative
         k, tau = self.at(t) if where is None else where
         inside = (tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))).astype(np.longdouble)
+        total = cum[k] + inside
+        # the parts after the end and before 0, added only where they are not zero (adding a zero changes nothing)
         end_t = self.start[-1] + self.dur[-1]
-        s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
-        after = (np.maximum(t - end_t, 0.0) * s_end).astype(np.longdouble)
-        before = (np.minimum(t, 0.0) * self.s0[0]).astype(np.longdouble)
-        return cum[k] + inside + after + before
+        late, early = np.flatnonzero(t > end_t), np.flatnonzero(t < 0.0)
+        if len(late):
+            s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
+            total[late] += ((t[late] - end_t) * s_end).astype(np.longdouble)
+        if len(early):
+            total[early] += (t[early] * self.s0[0]).astype(np.longdouble)
+        return total
 
 
 def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float, period: float) -> np.ndarray:
