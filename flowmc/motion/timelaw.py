@@ -635,7 +635,8 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
         y, budget = _profile(capped, stops, ds, reach_budget, node_limit=limit, rounds=_REACH_PROFILE_ROUNDS)
         return y, budget, (lo, hi)
 
-    high, known = fastest, own
+    high = fastest
+    known: tuple | None = own
     for _ in range(_REACH_ROUNDS):
         y, budget, reach = planned(high, high, known)
         if _converged(high, y):
