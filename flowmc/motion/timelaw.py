@@ -300,8 +300,15 @@ def _geometry(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, cols, third:
     tan, kv, p3, sp = _interval_frame(curve, u, k_iv, third)
     mask = np.zeros(3)
     mask[list(cols)] = 1.0
-    return _Geometry(np.abs(tan) * mask, np.abs(kv) * mask, None if p3 is None else np.abs(p3) * mask,
-                     np.sign(tan) * kv * mask), sp
+    # in place: every fresh array of 3 x 3 values per interval costs page faults as well as a pass
+    kt = np.sign(tan)
+    kt *= kv
+    kt *= mask
+    for a in (tan, kv, p3):
+        if a is not None:
+            np.abs(a, out=a)
+            a *= mask
+    return _Geometry(tan, kv, p3, kt), sp
 
 
 def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[np.ndarray, np.ndarray]:
