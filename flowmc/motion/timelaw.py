@@ -779,8 +779,8 @@ class _Phases:
         long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known."""
         cum = self._cumulative
         k, tau = self.at(t) if where is None else where
-        inside = (tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))).astype(np.longdouble)
-        total = cum[k] + inside
+        total = cum[k]
+        total += tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))  # widened exactly, added as long doubles
         # the parts after the end and before 0, added only where they are not zero (adding a zero changes nothing)
         end_t = self.start[-1] + self.dur[-1]
         late, early = np.flatnonzero(t > end_t), np.flatnonzero(t < 0.0)
