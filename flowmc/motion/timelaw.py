@@ -714,8 +714,8 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     big = 2.0 * float(np.max(y)) + 1.0
     idx = np.arange(len(rise))
     l_len, r_len = rise + 2 - left0, right1 - fall + 1
-    l_nodes = np.concatenate([np.arange(a, b + 2) for a, b in zip(left0, rise)])
-    r_nodes = np.concatenate([np.arange(a, b + 1)[::-1] for a, b in zip(fall, right1)])
+    l_nodes = np.repeat(left0 - 1, l_len) + _ranks(l_len)  # left0 .. rise + 1 for each peak
+    r_nodes = np.repeat(right1 + 1, r_len) - _ranks(r_len)  # right1 down to fall
     l_key = y[l_nodes] + np.repeat(idx, l_len) * big
     r_key = y[r_nodes] + np.repeat(idx, r_len) * big
     l_off, r_off = np.r_[0, np.cumsum(l_len)[:-1]], np.r_[0, np.cumsum(r_len)[:-1]]
@@ -734,7 +734,7 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     # every node of a peak above its level is capped there: both sides and the top between them
     caps = np.full(len(y), np.inf)
     t_len = fall - rise
-    t_nodes = np.concatenate([np.arange(a + 1, b + 1) for a, b in zip(rise, fall)])
+    t_nodes = np.repeat(rise, t_len) + _ranks(t_len)  # rise + 1 .. fall
     for nodes, length in ((l_nodes, l_len), (r_nodes, r_len), (t_nodes, t_len)):
         lv = np.repeat(level, length)
         above = y[nodes] > lv
