@@ -285,11 +285,19 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, third:
         if p[0] is None:
             out.append(None)
             continue
-        a = np.concatenate(p, axis=0)
-        whole = np.empty_like(a, shape=(3 * m, *a.shape[1:]))  # in a's layout: frame's are by axis
-        whole[:2 * m] = a[:2 * m]
-        whole[2 * m:3 * m - 1] = a[1:m]
-        whole[2 * m + own] = a[2 * m:]
+        # the chunks written straight into place (no concatenated copy of them first)
+        whole = np.empty_like(p[0], shape=(3 * m, *p[0].shape[1:]))  # in frame's layout: by axis
+        ends = np.empty_like(p[0], shape=(len(own), *p[0].shape[1:]))
+        start = 0
+        for part in p:
+            stop = start + len(part)
+            if start < 2 * m:
+                whole[start:min(stop, 2 * m)] = part[:2 * m - start]
+            if stop > 2 * m:
+                ends[max(start - 2 * m, 0):stop - 2 * m] = part[max(2 * m - start, 0):]
+            start = stop
+        whole[2 * m:3 * m - 1] = whole[1:m]
+        whole[2 * m + own] = ends
         out.append(whole)
     return tuple(out)
 
@@ -312,7 +320,13 @@ def _geometry(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, cols, third:
 
 
 def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Speed^2 cap from velocity and feed, and the largest speed^2 the normal terms alone allow."""
+    """Speed^2 cap from velocity and feed, and the largest speed^2 the normal terms alone allow. Worked out
+    CHUNK points at a time past CHUNKED, so the temporaries (3 values a point each) stay in cache and are not
+    fresh memory (page faults) every time."""
+    if len(feed) > CHUNKED:
+        parts = [_caps(_Geometry(g.t[i:i + CHUNK], g.k[i:i + CHUNK], None if g.p3 is None else g.p3[i:i + CHUNK],
+                                 g.kt[i:i + CHUNK]), feed[i:i + CHUNK], lim, jerk) for i in range(0, len(feed), CHUNK)]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     with np.errstate(divide="ignore"):
         y_vel = np.min(np.where(g.t > 0, (lim.vmax / np.where(g.t > 0, g.t, 1.0)) ** 2, np.inf), axis=1)
         y_vel = np.minimum(y_vel, feed**2)
