@@ -61,7 +61,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
 from flowmc.motion.sample_clock import setpoint_times
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_jerk", "arc_length_at", "speed_at",
+__all__ = ["TimeLaw", "plan_time_law", "plan_jerk_limited", "sample_time_law", "sampled_jerk", "arc_length_at", "speed_at",
            "frame"]
 
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
