@@ -6,8 +6,9 @@ flowmc.motion.timelaw (per-axis velocity, acceleration and, for ``profile="scurv
 along the curve; the whole program at once, so "look-ahead" is the entire program) + sampling at
 t = kT. The tool is on the smoothed curve at every setpoint; every setpoint is tagged with the
 programmed segment it is on. A jerk-limited law is first planned without mending the swings of its
-acceleration (timelaw's ``mend_swings``: a bound that stacks every jerk term at its worst), and planned again
-with them mended only if its sampled setpoints break a jerk limit. Where the curvature-change term of the
+acceleration (timelaw's ``mend_swings``: a bound that stacks every jerk term at its worst), and planned on
+to mend them (timelaw.plan_jerk_limited: from where the first try stopped) only if its sampled setpoints break a
+jerk limit. Where the curvature-change term of the
 jerk holds the speed, the samples are then retimed by flowmc.motion.jerk_retime (within every per-axis
 limit, from the samples), and kept if faster.
 """
@@ -29,7 +30,7 @@ from flowmc.motion.pieces import _check_axes
 from flowmc.motion.reshape import faster_reshaped
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
-from flowmc.motion.timelaw import TimeLaw, plan_time_law, sample_time_law, sampled_accel, sampled_jerk
+from flowmc.motion.timelaw import TimeLaw, plan_jerk_limited, plan_time_law, sample_time_law, sampled_accel, sampled_jerk
 from flowmc.motion.trajectory import Trajectory
 
 __all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
@@ -121,27 +122,31 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
     """The time law on a smoothed curve (``known``: the trapezoid law already worked out for it) and its samples."""
     curve = sm.curve
 
-    def planned(mend_swings: bool, tight=None):
-        law = known if known is not None and tight is None else plan_time_law(
-            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=jerk,
-            mend_swings=mend_swings, tight=tight)
+    def sampled(law: TimeLaw):
         u, dwell_seg = sample_time_law(law, curve, machine.period, axes=len(lim.cols))
         pos = curve.points(u)
         pos[0], pos[-1] = path.start, path.end
         return law, u, dwell_seg, pos
 
-    law, u, dwell_seg, pos = planned(not jerk)
-    if jerk and sampled_jerk(pos[:, list(lim.cols)], lim) > 1.0:
-        law, u, dwell_seg, pos = planned(True)  # a swing of the acceleration broke the jerk limit: mend them all
+    args = (curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim)
+    if jerk:
+        law, mended = plan_jerk_limited(*args)
+        law, u, dwell_seg, pos = sampled(law)
+        if sampled_jerk(pos[:, list(lim.cols)], lim) > 1.0:  # a swing of the acceleration broke the jerk limit: mend them all
+            better = mended()
+            if better is not law:
+                law, u, dwell_seg, pos = sampled(better)
+        return law, u, dwell_seg, pos
+    law, u, dwell_seg, pos = sampled(known if known is not None else plan_time_law(*args, jerk=False))
     tight = np.zeros((0, 2))
-    for reach in () if jerk else _TIGHT_REACH:
+    for reach in _TIGHT_REACH:
         # above the normal terms' own cap the law keeps the limits at three points of each interval only: where
         # a sample breaks one, that cap again about it (the last reach: everywhere, the law before branch spiral12)
         over = sampled_accel(pos[:, list(lim.cols)], lim)
         if not over.size:
             break
         tight = np.r_[tight, np.c_[u[over - 1] - reach, u[over + 1] + reach]]
-        law, u, dwell_seg, pos = planned(True, tight)
+        law, u, dwell_seg, pos = sampled(plan_time_law(*args, jerk=False, tight=tight))
     return law, u, dwell_seg, pos
 
 

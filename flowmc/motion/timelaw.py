@@ -67,7 +67,8 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
 from flowmc.motion.sample_clock import setpoint_times
 
-__all__ = ["TimeLaw", "plan_time_law", "sample_time_law", "sampled_accel", "sampled_jerk", "arc_length_at", "speed_at",
+__all__ = ["TimeLaw", "plan_time_law", "plan_jerk_limited", "sample_time_law", "sampled_accel", "sampled_jerk",
+           "arc_length_at", "speed_at",
            "frame"]
 
 _ACCEL_SLACK = 1e-7  # sampled accelerations this share over amax are rounding (the plans before: up to 5e-8)
@@ -293,11 +294,19 @@ def _interval_frame(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, third:
         if p[0] is None:
             out.append(None)
             continue
-        a = np.concatenate(p, axis=0)
-        whole = np.empty_like(a, shape=(3 * m, *a.shape[1:]))  # in a's layout: frame's are by axis
-        whole[:2 * m] = a[:2 * m]
-        whole[2 * m:3 * m - 1] = a[1:m]
-        whole[2 * m + own] = a[2 * m:]
+        # the chunks written straight into place (no concatenated copy of them first)
+        whole = np.empty_like(p[0], shape=(3 * m, *p[0].shape[1:]))  # in frame's layout: by axis
+        ends = np.empty_like(p[0], shape=(len(own), *p[0].shape[1:]))
+        start = 0
+        for part in p:
+            stop = start + len(part)
+            if start < 2 * m:
+                whole[start:min(stop, 2 * m)] = part[:2 * m - start]
+            if stop > 2 * m:
+                ends[max(start - 2 * m, 0):stop - 2 * m] = part[max(2 * m - start, 0):]
+            start = stop
+        whole[2 * m:3 * m - 1] = whole[1:m]
+        whole[2 * m + own] = ends
         out.append(whole)
     return tuple(out)
 
@@ -308,12 +317,25 @@ def _geometry(curve: PlannedCurve, u: np.ndarray, k_iv: np.ndarray, cols, third:
     tan, kv, p3, sp = _interval_frame(curve, u, k_iv, third)
     mask = np.zeros(3)
     mask[list(cols)] = 1.0
-    return _Geometry(np.abs(tan) * mask, np.abs(kv) * mask, None if p3 is None else np.abs(p3) * mask,
-                     np.sign(tan) * kv * mask), sp
+    # in place: every fresh array of 3 x 3 values per interval costs page faults as well as a pass
+    kt = np.sign(tan)
+    kt *= kv
+    kt *= mask
+    for a in (tan, kv, p3):
+        if a is not None:
+            np.abs(a, out=a)
+            a *= mask
+    return _Geometry(tan, kv, p3, kt), sp
 
 
 def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Speed^2 cap from velocity and feed, and the largest speed^2 the normal terms alone allow."""
+    """Speed^2 cap from velocity and feed, and the largest speed^2 the normal terms alone allow. Worked out
+    CHUNK points at a time past CHUNKED, so the temporaries (3 values a point each) stay in cache and are not
+    fresh memory (page faults) every time."""
+    if len(feed) > CHUNKED:
+        parts = [_caps(_Geometry(g.t[i:i + CHUNK], g.k[i:i + CHUNK], None if g.p3 is None else g.p3[i:i + CHUNK],
+                                 g.kt[i:i + CHUNK]), feed[i:i + CHUNK], lim, jerk) for i in range(0, len(feed), CHUNK)]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     with np.errstate(divide="ignore"):
         y_vel = np.min(np.where(g.t > 0, (lim.vmax / np.where(g.t > 0, g.t, 1.0)) ** 2, np.inf), axis=1)
         y_vel = np.minimum(y_vel, feed**2)
@@ -531,10 +553,44 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     tool rests (with ``stop_dwell`` seconds, owned by dwell segment ``stop_segment`` or -1).
     ``mend_swings=False`` (jerk-limited laws only) skips step 2 of ``_filterable``, whose bound stacks every
     term at its worst: faster, and usually within the jerk limit anyway, which the caller then checks from
-    the samples (``sampled_jerk``). Without a jerk limit the speed may pass the normal terms' own cap where a
-    path acceleration keeps every axis within its limit (``_tangent_cap``), except over the curve parameter
-    ranges ``tight`` ((n, 2): lo, hi), where the caller found its samples over a limit (``sampled_accel``).
+    the samples (``sampled_jerk``; ``plan_jerk_limited`` mends only then). Without a jerk limit the speed
+    may pass the normal terms' own cap where a path acceleration keeps every axis within its limit
+    (``_tangent_cap``), except over the curve parameter ranges ``tight`` ((n, 2): lo, hi), where the caller
+    found its samples over a limit (``sampled_accel``).
     """
+    if jerk:
+        law, mended = plan_jerk_limited(curve, stop_u, stop_dwell, stop_segment, feed_of_u, lim)
+        return mended() if mend_swings else law
+    u, s, ds, speed_u, stops, geo, cap = _laid_out(curve, stop_u, feed_of_u, lim, jerk=False, tight=tight)
+    y = _greatest(cap, stops, ds, _Budgets(geo, len(ds), lim, 0.0))
+    return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, 0.0, lim.period)
+
+
+def plan_jerk_limited(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
+                      feed_of_u, lim: PathLimits):
+    """The jerk-limited law with its swings unmended, and a function that gives it mended: that one goes on
+    from where the unmended one stopped (grid, geometry, profiles and the first round of ``_filterable`` are
+    the same), and is the unmended law itself where no swing needed mending."""
+    u, s, ds, speed_u, stops, geo, cap = _laid_out(curve, stop_u, feed_of_u, lim, jerk=True)
+    tries = _JerkLimited(cap, stops, stop_dwell, ds, geo, lim)
+
+    def law_of(mend_swings: bool) -> TimeLaw:
+        y, window = tries.best(mend_swings)
+        return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, window,
+                       lim.period)
+
+    first = law_of(False)
+
+    def mended() -> TimeLaw:
+        law = law_of(True)
+        return first if law.y is first.y and law.window == first.window else law
+    return first, mended
+
+
+def _laid_out(curve: PlannedCurve, stop_u: np.ndarray, feed_of_u, lim: PathLimits, jerk: bool,
+              tight: np.ndarray | None = None):
+    """The grid (u, s, ds, ds/du at the nodes, stop nodes), its geometry and its speed^2 caps (``tight``: as in
+    ``plan_time_law``)."""
     u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP, _TURN_STEP if jerk else _TURN_STEP_TRAPEZOID)
     du = np.diff(u)
     if np.any(du <= 0):
@@ -547,55 +603,65 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     ds = 0.5 * du * (np.sqrt(np.einsum("ij,ij->i", d1, d1)).reshape(m, -1) @ _GL3_W)
     s = np.concatenate([[0.0], np.cumsum(ds)])
     geo, sp = _geometry(curve, u, k_iv, lim.cols, third=jerk)
-    speed_u = np.r_[sp[:m], sp[-1]]
     feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     y_vel, y_acc = np.min(y_vel.reshape(3, m), axis=0), np.min(y_acc.reshape(3, m), axis=0)
     if not jerk:
         y_acc = np.where(_within(u, tight), y_acc, np.min(_tangent_cap(geo, lim).reshape(3, m), axis=0))
     cap = np.minimum(y_vel, _RHO * y_acc)
-    stops = np.searchsorted(u, stop_u)
-    if not jerk:
-        y = _greatest(cap, stops, ds, _Budgets(geo, m, lim, 0.0))
-        window = 0.0
-    else:
-        y, window = _jerk_limited(cap, stops, stop_dwell, ds, geo, m, lim, mend_swings)
-    accel = np.diff(y) / (2.0 * ds)
-    return TimeLaw(u, s, y, accel, speed_u, stops, stop_dwell, stop_segment, window, lim.period)
+    return u, s, ds, np.r_[sp[:m], sp[-1]], np.searchsorted(u, stop_u), geo, cap
 
 
-def _jerk_limited(cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray, geo: _Geometry,
-                  m: int, lim: PathLimits, mend_swings: bool = True) -> tuple[np.ndarray, float]:
-    """The jerk-limited profile and its filter length Tj.
+class _JerkLimited:
+    """The jerk-limited profile and its filter length Tj, swings mended or not.
 
     The filter allows an acceleration jump of jmax Tj within Tj, so Tj = amax / jmax lets the tangential
     acceleration reach amax on straight stretches. Where curvature terms hold the tangential budget far
     below that anyway (dense, tightly curved code: the motion spends less than _SHORT_WINDOW_USE of its
     time above half of it), a window half as long costs little acceleration and halves every reach (caps
     are taken over the stretch the window spans) and every rest at a stop; both are planned then, and the
-    one with the shorter motion (rests included) is kept."""
-    base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
-    best: tuple[float, np.ndarray, float] | None = None
-    for share in _WINDOWS:
-        window = share * base
-        budget_of = _Budgets(geo, m, lim, window)
-        rest = _stop_waits(len(ds) + 1, stops, stop_dwell, window)
-        y, _ = _profile(cap, stops, ds, budget_of)
-        y = _filterable(y, cap, budget_of, stops, ds, window, rest, mend_swings)
-        dt = np.diff(_node_times(y, ds))
-        total = float(dt.sum() + rest.sum()) + window
-        if best is None or total < best[0]:
-            best = (total, y, window)
-        full = _JERK_SHARE * float(np.min(lim.jmax[list(lim.cols)])) * window  # the straight-line budget
-        if float(dt[np.abs(np.diff(y) / (2.0 * ds)) > 0.5 * full].sum()) >= _SHORT_WINDOW_USE * dt.sum():
-            break
-    assert best is not None
-    return best[1], best[2]
+    one with the shorter motion (rests included) is kept. Each window's rounds of ``_filterable`` are
+    planned once, as far as asked: the unmended profile is the mended one's first round."""
+
+    def __init__(self, cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray,
+                 geo: _Geometry, lim: PathLimits):
+        self.cap, self.stops, self.stop_dwell, self.ds, self.geo, self.lim = cap, stops, stop_dwell, ds, geo, lim
+        self.base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
+        self.rounds: dict[float, tuple] = {}  # share -> (window, rest, its rounds, their profiles so far)
+
+    def _filtered(self, share: float, mend_swings: bool) -> tuple[float, np.ndarray, np.ndarray]:
+        if share not in self.rounds:
+            window = share * self.base
+            budget_of = _Budgets(self.geo, len(self.ds), self.lim, window)
+            rest = _stop_waits(len(self.ds) + 1, self.stops, self.stop_dwell, window)
+            y, _ = _profile(self.cap, self.stops, self.ds, budget_of)
+            rounds = _filterable(y, self.cap, budget_of, self.stops, self.ds, window, rest)
+            self.rounds[share] = (window, rest, rounds, [next(rounds)])
+        window, rest, rounds, ys = self.rounds[share]
+        if mend_swings:
+            ys.extend(rounds)
+        return window, rest, ys[-1] if mend_swings else ys[0]
+
+    def best(self, mend_swings: bool) -> tuple[np.ndarray, float]:
+        ds, lim = self.ds, self.lim
+        best: tuple[float, np.ndarray, float] | None = None
+        for share in _WINDOWS:
+            window, rest, y = self._filtered(share, mend_swings)
+            dt = np.diff(_node_times(y, ds))
+            total = float(dt.sum() + rest.sum()) + window
+            if best is None or total < best[0]:
+                best = (total, y, window)
+            full = _JERK_SHARE * float(np.min(lim.jmax[list(lim.cols)])) * window  # the straight-line budget
+            if float(dt[np.abs(np.diff(y) / (2.0 * ds)) > 0.5 * full].sum()) >= _SHORT_WINDOW_USE * dt.sum():
+                break
+        assert best is not None
+        return best[1], best[2]
 
 
 def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds: np.ndarray,
-                window: float, rest: np.ndarray, mend_swings: bool = True) -> np.ndarray:
-    """The profile made fit for the moving average over Tj.
+                window: float, rest: np.ndarray):
+    """The profile made fit for the moving average over Tj: yields it after every round (the first is the
+    unmended profile; the last, mended), each worked out only when asked for.
 
     1. The filtered motion at time t averages the unfiltered one over [t - Tj, t], so wherever it is,
        the unfiltered motion it averages lies within Tj of the time that motion passed there: every cap
@@ -606,14 +672,14 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     2. The jerk of the filtered motion is (a(t) - a(t - Tj)) / Tj. The budgets allow a jump of one
        budget within Tj. A swing further than that (speeding up within Tj of slowing down) is mostly a
        peak: those are cut flat for Tj (``_flatten_peaks``). Wherever a swing remains, the intervals
-       involved get budgets safe for a swing of twice the budget, and it is planned again (only with
-       ``mend_swings``; flowmc.motion.planner checks the samples of a law planned without).
+       involved get budgets safe for a swing of twice the budget, and it is planned again (mending;
+       flowmc.motion.planner checks the samples of a law planned without).
     """
     m = len(ds)
     swing = np.zeros(m, dtype=bool)
-    fastest = y
-    for _ in range(_SWING_ROUNDS if mend_swings else 1):
-        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest)
+    fastest, own = y, _reach(y, cap, ds, window, rest)
+    for _ in range(_SWING_ROUNDS):
+        y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest, own)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
         node_cap[stops] = 0.0
@@ -623,6 +689,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
                 break
             node_cap = np.minimum(node_cap, lowered)
             y = _scan(np.minimum(node_cap, y), ds, budget_e)
+        yield y
         depart = _node_times(y, ds) + np.cumsum(rest)  # the rests at stops (sample_time_law) separate too
         arrive = depart - rest
         a = np.diff(y) / (2.0 * ds)
@@ -636,20 +703,42 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
         over = ((window_max(a, p_lo, p_hi) - a > allowed * (1 + 1e-9))
                 | (a - window_min(a, p_lo, p_hi) > allowed * (1 + 1e-9)))
         over &= ~swing & has
-        if not mend_swings or not over.any():
-            break
+        if not over.any():
+            return
         # mark each offending interval and its partners (a difference array over the ranges)
         k = np.flatnonzero(over)
         mark = np.zeros(m + 1, dtype=int)
         np.add.at(mark, p_lo[k], 1)
         np.add.at(mark, p_hi[k] + 1, -1)
         swing |= (np.cumsum(mark)[:m] > 0) | over
-    return y
 
 
 def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.ndarray, stops: np.ndarray,
-                  ds: np.ndarray, window: float, rest: np.ndarray):
-    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval).
+                  ds: np.ndarray, window: float, rest: np.ndarray, own: tuple):
+    """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval). ``own``: ``_reach``
+    of ``fastest``, the same in every round of _filterable."""
+    def planned(faster: np.ndarray, limit: np.ndarray | None, known: tuple | None = None):
+        lo, hi, windows, capped = known if known is not None else _reach(faster, cap, ds, window, rest)
+
+        def reach_budget(level):
+            return tuple(windows.min(b) for b in budget_of(level, swing))
+
+        y, budget = _profile(capped, stops, ds, reach_budget, node_limit=limit, rounds=_REACH_PROFILE_ROUNDS)
+        return y, budget, (lo, hi)
+
+    high = fastest
+    known: tuple | None = own
+    for _ in range(_REACH_ROUNDS):
+        y, budget, reach = planned(high, high, known)
+        if _converged(high, y):
+            break
+        high, known = np.maximum(planned(y, None)[0], y), None
+    return y, budget, reach
+
+
+def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, rest: np.ndarray) -> tuple:
+    """The reach of every interval under profile ``faster`` (lo, hi), its ``Windows`` (every round of a profile
+    takes minima over them) and the cap's minima over them.
 
     The reach of interval k: every interval the filtered motion is on while its window holds some of the
     time spent on k. The window holds it from the time the motion leaves node k until Tj after it reaches
@@ -658,37 +747,17 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
     profile (faster at every s) gives a wider reach: the window's average lies further back and ahead."""
     m = len(ds)
     s_nodes = np.concatenate([[0.0], np.cumsum(ds)])
-    no_owner = np.full(m + 1, -1)
-
-    def reach_of(faster: np.ndarray):
-        ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, no_owner)
-        depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
-        arrive = ph.start[0::2]
-        times = np.concatenate([depart[:-1], arrive[1:] + window])
-        filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
-        lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
-        hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
-        k = np.arange(m)
-        return np.minimum(lo, k), np.maximum(hi, k)
-
-    def planned(faster: np.ndarray, limit: np.ndarray | None):
-        lo, hi = reach_of(faster)
-        windows = Windows(lo, hi, m)  # every round of the profile takes minima over these windows
-
-        def reach_budget(level):
-            return tuple(windows.min(b) for b in budget_of(level, swing))
-
-        y, budget = _profile(windows.min(cap), stops, ds, reach_budget, node_limit=limit,
-                             rounds=_REACH_PROFILE_ROUNDS)
-        return y, budget, (lo, hi)
-
-    high = fastest
-    for _ in range(_REACH_ROUNDS):
-        y, budget, reach = planned(high, high)
-        if _converged(high, y):
-            break
-        high = np.maximum(planned(y, None)[0], y)
-    return y, budget, reach
+    ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, np.full(m + 1, -1))
+    depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
+    arrive = ph.start[0::2]
+    times = np.concatenate([depart[:-1], arrive[1:] + window])
+    filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
+    lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
+    hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
+    k = np.arange(m)
+    lo, hi = np.minimum(lo, k), np.maximum(hi, k)
+    windows = Windows(lo, hi, m)
+    return lo, hi, windows, windows.min(cap)
 
 
 def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
@@ -729,8 +798,8 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     big = 2.0 * float(np.max(y)) + 1.0
     idx = np.arange(len(rise))
     l_len, r_len = rise + 2 - left0, right1 - fall + 1
-    l_nodes = np.concatenate([np.arange(a, b + 2) for a, b in zip(left0, rise)])
-    r_nodes = np.concatenate([np.arange(a, b + 1)[::-1] for a, b in zip(fall, right1)])
+    l_nodes = np.repeat(left0 - 1, l_len) + _ranks(l_len)  # left0 .. rise + 1 for each peak
+    r_nodes = np.repeat(right1 + 1, r_len) - _ranks(r_len)  # right1 down to fall
     l_key = y[l_nodes] + np.repeat(idx, l_len) * big
     r_key = y[r_nodes] + np.repeat(idx, r_len) * big
     l_off, r_off = np.r_[0, np.cumsum(l_len)[:-1]], np.r_[0, np.cumsum(r_len)[:-1]]
@@ -749,7 +818,7 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     # every node of a peak above its level is capped there: both sides and the top between them
     caps = np.full(len(y), np.inf)
     t_len = fall - rise
-    t_nodes = np.concatenate([np.arange(a + 1, b + 1) for a, b in zip(rise, fall)])
+    t_nodes = np.repeat(rise, t_len) + _ranks(t_len)  # rise + 1 .. fall
     for nodes, length in ((l_nodes, l_len), (r_nodes, r_len), (t_nodes, t_len)):
         lv = np.repeat(level, length)
         above = y[nodes] > lv
@@ -794,12 +863,17 @@ class _Phases:
         long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known."""
         cum = self._cumulative
         k, tau = self.at(t) if where is None else where
-        inside = (tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))).astype(np.longdouble)
+        total = cum[k]
+        total += tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))  # widened exactly, added as long doubles
+        # the parts after the end and before 0, added only where they are not zero (adding a zero changes nothing)
         end_t = self.start[-1] + self.dur[-1]
-        s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
-        after = (np.maximum(t - end_t, 0.0) * s_end).astype(np.longdouble)
-        before = (np.minimum(t, 0.0) * self.s0[0]).astype(np.longdouble)
-        return cum[k] + inside + after + before
+        late, early = np.flatnonzero(t > end_t), np.flatnonzero(t < 0.0)
+        if len(late):
+            s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
+            total[late] += ((t[late] - end_t) * s_end).astype(np.longdouble)
+        if len(early):
+            total[early] += (t[early] * self.s0[0]).astype(np.longdouble)
+        return total
 
 
 def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float) -> np.ndarray:

@@ -117,6 +117,20 @@ def test_a_law_whose_samples_break_the_jerk_limit_is_planned_again_with_its_swin
     assert np.abs(np.diff(q, 3, axis=0)).max() / T**3 <= 500.0
 
 
+def test_plan_jerk_limited_gives_the_laws_plan_time_law_gives_unmended_and_mended():
+    path = Path.polyline(np.c_[np.array(SWINGING), np.zeros(len(SWINGING))], feed=200.0)
+    lim = PathLimits.of(cam_machine(jerk=500.0))
+    sm = smooth_path(path, lim, 0.05, continuity=2)
+    args = (sm.curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, lambda u: sm.seg_feed[sm.curve.segment_at(u)], lim)
+    first, mended = timelaw.plan_jerk_limited(*args)
+    again = mended()
+    for law, fresh in ((first, timelaw.plan_time_law(*args, jerk=True, mend_swings=False)),
+                       (again, timelaw.plan_time_law(*args, jerk=True, mend_swings=True))):
+        assert law.window == fresh.window
+        assert np.array_equal(law.y, fresh.y) and np.array_equal(law.u, fresh.u)
+    assert not np.array_equal(again.y, first.y)  # this walk's swings needed mending
+
+
 def test_a_law_within_the_jerk_limit_keeps_its_swings_unmended_and_is_faster():
     # mixed at j = 500: mending the swings everywhere costs 2 % and was not needed (sampled jerk 0.99 x)
     data = json.loads((REF / "mixed.json").read_text())
