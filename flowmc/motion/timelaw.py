@@ -572,7 +572,7 @@ def plan_jerk_limited(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.nd
     from where the unmended one stopped (grid, geometry, profiles and the first round of ``_filterable`` are
     the same), and is the unmended law itself where no swing needed mending."""
     u, s, ds, speed_u, stops, geo, cap = _laid_out(curve, stop_u, feed_of_u, lim, jerk=True)
-    tries = _JerkLimited(cap, stops, stop_dwell, ds, geo, lim)
+    tries = _JerkLimited(cap, stops, stop_dwell, stop_segment, ds, geo, lim)
 
     def law_of(mend_swings: bool) -> TimeLaw:
         y, window = tries.best(mend_swings)
@@ -623,9 +623,10 @@ class _JerkLimited:
     one with the shorter motion (rests included) is kept. Each window's rounds of ``_filterable`` are
     planned once, as far as asked: the unmended profile is the mended one's first round."""
 
-    def __init__(self, cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, ds: np.ndarray,
-                 geo: _Geometry, lim: PathLimits):
-        self.cap, self.stops, self.stop_dwell, self.ds, self.geo, self.lim = cap, stops, stop_dwell, ds, geo, lim
+    def __init__(self, cap: np.ndarray, stops: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
+                 ds: np.ndarray, geo: _Geometry, lim: PathLimits):
+        self.cap, self.stops, self.stop_dwell, self.stop_segment = cap, stops, stop_dwell, stop_segment
+        self.ds, self.geo, self.lim = ds, geo, lim
         self.base = float(np.max((lim.amax / lim.jmax)[list(lim.cols)]))
         self.rounds: dict[float, tuple] = {}  # share -> (window, rest, its rounds, their profiles so far)
 
@@ -633,7 +634,7 @@ class _JerkLimited:
         if share not in self.rounds:
             window = share * self.base
             budget_of = _Budgets(self.geo, len(self.ds), self.lim, window)
-            rest = _stop_waits(len(self.ds) + 1, self.stops, self.stop_dwell, window)
+            rest = _stop_waits(len(self.ds) + 1, self.stops, self.stop_dwell, self.stop_segment, window, self.lim.period)
             y, _ = _profile(self.cap, self.stops, self.ds, budget_of)
             rounds = _filterable(y, self.cap, budget_of, self.stops, self.ds, window, rest)
             self.rounds[share] = (window, rest, rounds, [next(rounds)])
@@ -876,24 +877,31 @@ class _Phases:
         return total
 
 
-def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, window: float) -> np.ndarray:
+def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, owner: np.ndarray, window: float,
+                period: float) -> np.ndarray:
     """How long the unfiltered motion waits at each node: at every stop its dwell, plus Tj inside the program
-    when filtered, so that the filtered motion rests there that long too. Unfiltered, a stop with no dwell is
-    passed at rest in an instant: a sampled acceleration that sees both the arrival and the departure (which may
-    go another way) is an average of the two, each within the per-axis limits, so it is too (a second
-    difference is the acceleration weighed over two periods)."""
+    when filtered, so that the filtered motion rests there that long too. Unfiltered, a stop of the path's
+    shape (no dwell, no segment of its own) is passed at rest in an instant: a sampled acceleration that sees
+    both the arrival and the departure (which may go another way) is an average of the two, each within the
+    per-axis limits, so it is too (a second difference is the acceleration weighed over two periods). A stop
+    the program asks for (its own segment: M0, M1, M6, M60, a dwell) rests at least a period, so a setpoint
+    is there at rest: a job holds at it, and LinuxCNC's program and single-block ends are cut there."""
     wait = np.zeros(n)
     np.add.at(wait, stop_node, dwell)
+    inner = np.zeros(n, dtype=bool)
+    inner[stop_node] = True
+    inner[[0, -1]] = False
     if window > 0:
-        inner = np.zeros(n, dtype=bool)
-        inner[stop_node] = True
-        inner[[0, -1]] = False
         wait[inner] += window
+    else:
+        asked = np.zeros(n, dtype=bool)
+        asked[stop_node[owner >= 0]] = True
+        wait[inner & asked] = np.maximum(wait[inner & asked], period)
     return wait
 
 
 def _phases(law: TimeLaw) -> _Phases:
-    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.window)
+    wait = _stop_waits(len(law.s), law.stop_node, law.stop_wait, law.stop_segment, law.window, law.period)
     owner = np.full(len(law.s), -1)
     owner[law.stop_node] = law.stop_segment
     return _phases_of(law.s, law.y, law.accel, wait, owner)

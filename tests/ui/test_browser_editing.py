@@ -235,7 +235,14 @@ def test_notifications_stay_off_the_canvas_never_pile_up_and_expire(page_on):
     toasts.first.wait_for(timeout=10000)
     canvas = page.evaluate("(() => { const r = window.__viserMutable.canvas.getBoundingClientRect(); "
                            "return [r.left, r.top, r.right, r.bottom]; })()")
-    box = toasts.first.bounding_box()
+    boxes = [toasts.first.bounding_box()]
+
+    def still() -> bool:  # a notification slides in from the right: judge where it comes to rest
+        page.wait_for_timeout(100)
+        boxes.append(toasts.first.bounding_box())
+        return boxes[-1] == boxes[-2]
+    wait_until(still, 10, "the notification to come to rest")
+    box = boxes[-1]
     assert box["x"] >= canvas[2] - 1, (box, canvas)  # beside the canvas, over the right-hand column
     for k in range(6):  # a burst of messages: the oldest go
         editor.notify("info", f"message {k}")
