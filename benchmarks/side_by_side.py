@@ -6,10 +6,10 @@ plan (the process's own clock). Medians per tree, setpoints per second, and the 
 ratios (B / A), which a busy spell hits on both sides alike. Cold (``--cold N``): N fresh processes per
 tree, alternated, each importing the reader and planner, reading the program and planning it (trapezoid),
 as benchmarks/cam_programs.py's cold table does; CPU time of the whole process from the OS. Programs
-are cam_programs.py's (its machine, T = 1 ms, tolerance 0.05 mm). A tree is a folder holding ``flowmc/``
-(a worktree, or ``git archive REV | tar -x -C DIR``).
+are cam_programs.py's, the four reference paths among them (its machine, T = 1 ms, tolerance 0.05 mm). A tree
+is a folder holding ``flowmc/`` (a worktree, or ``git archive REV | tar -x -C DIR``).
 
-    python3 benchmarks/side_by_side.py TREE_A TREE_B [--rounds 7] [--cold 5] [PROGRAM:PROFILE ...]
+    python3 benchmarks/side_by_side.py TREE_A TREE_B [PROGRAM:PROFILE ...] [--rounds 7] [--cold 5]
 """
 
 from __future__ import annotations
@@ -29,13 +29,13 @@ import cam_programs  # noqa: E402
 WORKER = """
 import json, sys, time
 sys.path.insert(0, {bench!r})
-from cam_programs import machine, program_path
+from cam_programs import REFERENCE, machine, program_path, reference_path
 from flowmc.motion.planner import plan_smooth
 paths = {{}}
 for line in sys.stdin:
     name, profile = line.split()
     if name not in paths:
-        paths[name] = program_path(name)
+        paths[name] = reference_path(name) if name in REFERENCE else program_path(name)
         plan_smooth(paths[name], machine(), tolerance=0.05, profile=profile)
     c = time.process_time()
     plan = plan_smooth(paths[name], machine(), tolerance=0.05, profile=profile)
