@@ -308,18 +308,21 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     bounds[n:n + 2, 1] = bounds[2 * n - 2:2 * n, 1] = 0.0
     if fitted:  # where the load is above its mean, the share may be negative: those points are not flattened
         bounds[n:2 * n, 0] = -_GAIN_MAX
+    def offset(d):  # the stretch moved by d along the normal, with its own tangents kept at both ends
+        return CubicSpline(u - ua, p + d[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
+
     for _ in range(_NARROWINGS + 1):  # where the check fails, the band is narrowed there and the program solved again
         res = linprog(cost, A_ub=a_ub, b_ub=rhs, bounds=bounds, method="highs")
         if res.status != 0 or float(weight @ res.x[n:2 * n]) < 1e-3 * float(weight.sum()) * _GAIN_SLOPE:
             return None
         d = res.x[:n]
-        spline = CubicSpline(u - ua, p + d[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
+        spline = offset(d)
         dev, miss = _deviation(spline, ua, ub, curve, near, programmed, tol)
         if dev <= tol:
             return spline, dev
         miss = np.sort(np.r_[miss, np.inf])
         bounds[:n][miss[np.searchsorted(miss, u - ua - _NARROW_REACH)] <= u - ua + _NARROW_REACH] *= 0.5
-    spline = CubicSpline(u - ua, p + 0.5 * d[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
+    spline = offset(0.5 * d)
     dev = _deviation(spline, ua, ub, curve, near, programmed, tol)[0]
     return (spline, dev) if dev <= tol else None
 

@@ -398,8 +398,6 @@ class _Budgets:
         t, k = worst(g.t), worst(g.k)
         p3 = None if g.p3 is None else worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
-        # the normal term helps on an axis where it has the same sign at all three points (its least help)
-        help_up, help_down = worst(g.kt), worst(-g.kt)
         self.window = window
         # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
         self.axes = []
@@ -409,9 +407,7 @@ class _Budgets:
             moving = t[i] > 0
             inv_t = np.where(moving, 1.0 / np.where(moving, t[i], 1.0), 0.0)
             row = {"alpha": np.where(moving, lim.amax[i] * inv_t, np.inf),
-                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t,
-                   "gamma_up": np.maximum(-help_up[i], 0.0) * inv_t,
-                   "gamma_down": np.maximum(-help_down[i], 0.0) * inv_t}
+                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t}
             if window > 0 and p3 is not None:
                 row.update(jmax=_JERK_SHARE * lim.jmax[i], t_win=t[i] / window, k3=3.0 * k[i], p3=p3[i])
             self.axes.append(row)
@@ -894,9 +890,8 @@ def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, owner: np.ndar
     if window > 0:
         wait[inner] += window
     else:
-        asked = np.zeros(n, dtype=bool)
-        asked[stop_node[owner >= 0]] = True
-        wait[inner & asked] = np.maximum(wait[inner & asked], period)
+        asked = stop_node[(owner >= 0) & inner[stop_node]]
+        wait[asked] = np.maximum(wait[asked], period)
     return wait
 
 
