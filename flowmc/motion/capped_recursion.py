@@ -40,8 +40,7 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
     if n <= 2 * _BLOCK:
         return _sequential(cap, a, b)
     c_blk = _blocks(cap[:n], np.inf)
-    a_blk = [_blocks(ai, 1.0) for ai in a]
-    b_blk = [_blocks(bi, 0.0) for bi in b]
+    a_blk, b_blk = _blocks(a, 1.0), _blocks(b, 0.0)
     at = c_blk if guess is None else _blocks(guess[:n], np.inf)
     x_in = np.r_[at[0, 1:], end]  # the value after each block's last step: the next block's first
     maps = _sweep(c_blk, a_blk, b_blk, x_in, at)[1]
@@ -53,8 +52,7 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
             y_blk, maps = _sweep(c_blk, a_blk, b_blk, x_in)
         else:  # a block run again from the same input gives the same values and map: only the others are
             again = np.flatnonzero(x_in != ran)
-            y_blk[:, again], part = _sweep(c_blk[:, again], [v[:, again] for v in a_blk],
-                                           [v[:, again] for v in b_blk], x_in[again])
+            y_blk[:, again], part = _sweep(c_blk[:, again], a_blk[:, :, again], b_blk[:, :, again], x_in[again])
             for whole, new_part in zip(maps, part):
                 whole[again] = new_part
         ran = x_in
@@ -71,30 +69,35 @@ def _sweep(c_blk, a_blk, b_blk, x_in, at=None):
     """Every block run from its input ``x_in`` (the value after its last step) with, at each step, the least
     of the axes' maps (step 2), and composed into one map min(C, A y + B) of its input by the maps chosen
     (step 1). With ``at`` (values in block layout), the maps are chosen at those values and nothing is run.
-    Returns the values (None with ``at``) and the composed maps (C, A, B)."""
+    ``a_blk`` and ``b_blk`` are (map, step, block) arrays. Returns the values (None with ``at``) and the
+    composed maps (C, A, B)."""
     nb = c_blk.shape[1]
     big_a, big_b, big_c = np.ones(nb), np.zeros(nb), np.full(nb, np.inf)
     y_blk = None if at is not None else np.empty_like(c_blk)
+    cols = np.arange(nb)
     x = x_in
     for j in range(_BLOCK - 1, -1, -1):
         if at is not None and j < _BLOCK - 1:
             x = at[j + 1]
-        aj, bj = a_blk[0][j], b_blk[0][j]
-        least = aj * x + bj if y_blk is not None or len(a_blk) > 1 else None
-        for a, b in zip(a_blk[1:], b_blk[1:]):
-            v = a[j] * x + b[j]
-            lower = v < least
-            aj, bj, least = np.where(lower, a[j], aj), np.where(lower, b[j], bj), np.minimum(v, least)
+        aj, bj = a_blk[:, j], b_blk[:, j]
+        if len(aj) > 1:  # the least map at x; on a tie the first, as the axes come
+            k = (aj * x + bj).argmin(axis=0)
+            aj, bj = aj[k, cols], bj[k, cols]
+        else:
+            aj, bj = aj[0], bj[0]
         if y_blk is not None:
-            x = y_blk[j] = np.minimum(c_blk[j], least)
+            x = y_blk[j] = np.minimum(c_blk[j], aj * x + bj)
         big_c = np.minimum(c_blk[j], aj * big_c + bj)
         big_b = aj * big_b + bj
         big_a = aj * big_a
     return y_blk, (big_c, big_a, big_b)
 
 
-def _blocks(v: np.ndarray, fill: float) -> np.ndarray:
-    """v padded to whole blocks, as (step, block): each row one step of every block."""
+def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
+    """v padded to whole blocks, as (step, block): each row one step of every block; a list of such vectors
+    (the maps of every axis) as (map, step, block)."""
+    if isinstance(v, list):
+        return np.stack([_blocks(vi, fill) for vi in v])
     n = len(v)
     whole, rest = divmod(n, _BLOCK)
     out = np.empty((_BLOCK, whole + (rest > 0)))
@@ -115,10 +118,10 @@ def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarra
             x = min(ck, ak * x + bk)
             y[n - 1 - k] = x
         return y
-    c_blk, a_blk, b_blk = [_blocks(c, np.inf)], [_blocks(a, 1.0)], [_blocks(b, 0.0)]
-    big_c, big_a, big_b = _sweep(c_blk[0], a_blk, b_blk, None, c_blk[0])[1]  # one map: nothing to choose
+    c_blk, a_blk, b_blk = _blocks(c, np.inf), _blocks([a], 1.0), _blocks([b], 0.0)
+    big_c, big_a, big_b = _sweep(c_blk, a_blk, b_blk, None, c_blk)[1]  # one map: nothing to choose
     first = _chain(big_c, big_a, big_b, end)  # each block's first value
-    y_blk = _sweep(c_blk[0], a_blk, b_blk, np.r_[first[1:], end])[0]
+    y_blk = _sweep(c_blk, a_blk, b_blk, np.r_[first[1:], end])[0]
     return y_blk.T.reshape(-1)[:n]
 
 
