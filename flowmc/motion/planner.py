@@ -15,6 +15,7 @@ limit, from the samples), and kept if faster.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -30,7 +31,7 @@ from flowmc.motion.pieces import _check_axes
 from flowmc.motion.reshape import faster_reshaped
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
-from flowmc.motion.timelaw import TimeLaw, plan_jerk_limited, plan_time_law, sample_time_law, sampled_accel, sampled_jerk
+from flowmc.motion.timelaw import TimeLaw, plan_jerk_limited, sample_time_law, sampled_accel, sampled_jerk, trapezoid_laws
 from flowmc.motion.trajectory import Trajectory
 
 __all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
@@ -78,10 +79,10 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     jerk = profile == "scurve"
     _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
     sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
-    known = None  # the trapezoid time law of sm.curve, where reshaping worked it out
+    known = None  # the trapezoid time law of sm.curve and its laws for other tight ranges, where reshaping worked them out
     if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
-        sm, known = faster_reshaped(sm, path, lim, tolerance, lambda curve: plan_time_law(
-            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim, jerk=False, mend_swings=True))
+        sm, known = faster_reshaped(sm, path, lim, tolerance, lambda curve: trapezoid_laws(
+            curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim))
     if sm.stopped is None:
         law, u, dwell_seg, pos = _timed(path, machine, lim, sm, jerk, known)
         if jerk:
@@ -118,8 +119,10 @@ def _blended_or_stopped(path: Path, machine: Machine, lim: PathLimits, sm: Smoot
     return sm, fast
 
 
-def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bool, known: TimeLaw | None = None):
-    """The time law on a smoothed curve (``known``: the trapezoid law already worked out for it) and its samples."""
+def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bool,
+           known: tuple[TimeLaw, Callable] | None = None):
+    """The time law on a smoothed curve (``known``: the trapezoid law already worked out for it, and the function
+    that gives it for tight ranges, ``trapezoid_laws``) and its samples."""
     curve = sm.curve
 
     def sampled(law: TimeLaw):
@@ -137,7 +140,8 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
             if better is not law:
                 law, u, dwell_seg, pos = sampled(better)
         return law, u, dwell_seg, pos
-    law, u, dwell_seg, pos = sampled(known if known is not None else plan_time_law(*args, jerk=False))
+    law, laws = known if known is not None else (None, trapezoid_laws(*args))
+    law, u, dwell_seg, pos = sampled(law if law is not None else laws(None))
     tight = np.zeros((0, 2))
     for reach in _TIGHT_REACH:
         # above the normal terms' own cap the law keeps the limits at three points of each interval only: where
@@ -146,7 +150,7 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
         if not over.size:
             break
         tight = np.r_[tight, np.c_[u[over - 1] - reach, u[over + 1] + reach]]
-        law, u, dwell_seg, pos = sampled(plan_time_law(*args, jerk=False, tight=tight))
+        law, u, dwell_seg, pos = sampled(laws(tight))
     return law, u, dwell_seg, pos
 
 

@@ -95,29 +95,33 @@ _LEAST_SHARE = 0.05  # of the curve's length the stretches must make up to be re
 
 
 def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: float,
-                    law_of: Callable[[PlannedCurve], TimeLaw]) -> tuple[Smoothed, TimeLaw | None]:
-    """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``law_of``) passes faster than
-    before, if the whole is faster too; ``sm`` itself otherwise. With it, the time law of the curve returned
-    where one was worked out (None where nothing was found to reshape), so the caller need not plan it again."""
+                    laws_of: Callable[[PlannedCurve], Callable[[None], TimeLaw]]
+                    ) -> tuple[Smoothed, tuple[TimeLaw, Callable] | None]:
+    """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``laws_of(curve)(None)``) passes
+    faster than before, if the whole is faster too; ``sm`` itself otherwise. With it, the time law of the curve
+    returned and its ``laws_of`` where they were worked out (None where nothing was found to reshape), so the
+    caller need not lay them out again."""
     raw, _ = raw_curve(path)
     tol_fit = fit_tolerance(limits, tolerance)
     found = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
     if not found:
         return sm, None
-    law = law_of(sm.curve)
+    laws = laws_of(sm.curve)
+    law = laws(None)
     before = _clock(law, [sm.curve.length])[0]
     for _ in range(3):  # all found, then those that gained (a stretch's neighbours change speed too), then again
         curve = _splice(sm.curve, found)
-        new = law_of(curve)
+        new_laws = laws_of(curve)
+        new = new_laws(None)
         faster = [f for f in found if np.diff(_clock(new, f[3]))[0] < np.diff(_clock(law, f[3]))[0]]
         if len(faster) == len(found):
             if _clock(new, [curve.length])[0] < before:
-                return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found))), new
+                return replace(sm, curve=curve, deviation=max(sm.deviation, max(f[4] for f in found))), (new, new_laws)
             break
         if not faster:
             break
         found = faster
-    return sm, law
+    return sm, (law, laws)
 
 
 def _clock(law: TimeLaw, u) -> np.ndarray:

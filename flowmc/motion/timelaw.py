@@ -55,6 +55,7 @@ kept if faster. The curve must be curvature-continuous for this
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -67,7 +68,7 @@ from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
 from flowmc.motion.sample_clock import setpoint_times
 
-__all__ = ["TimeLaw", "plan_time_law", "plan_jerk_limited", "sample_time_law", "sampled_accel", "sampled_jerk",
+__all__ = ["TimeLaw", "plan_time_law", "trapezoid_laws", "plan_jerk_limited", "sample_time_law", "sampled_accel", "sampled_jerk",
            "arc_length_at", "speed_at",
            "frame"]
 
@@ -528,14 +529,14 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     return low, budget
 
 
-def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budgets) -> np.ndarray:
+def _greatest(cap: np.ndarray, stops: np.ndarray, maps) -> np.ndarray:
     """Without a jerk limit: the fastest profile each interval of which keeps its budgets at its own speeds,
-    the normal terms that help counted at the smaller end's speed (``_Budgets.maps``): one backward pass for
+    the normal terms that help counted at the smaller end's speed (``maps``: ``_Budgets.maps``): one backward pass for
     the largest speed^2 from which the tool can still slow down to every cap ahead, one forward pass for the
     largest it can speed up to, each solved exactly (flowmc.motion.capped_recursion)."""
     node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
     node_cap[stops] = 0.0
-    down, up = budgets.maps(ds)
+    down, up = maps
     reach = descend(node_cap, *down)[::-1]
     return descend(reach, [a[::-1] for a in up[0]], [b[::-1] for b in up[1]], guess=reach)[::-1]
 
@@ -557,9 +558,20 @@ def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarra
     if jerk:
         law, mended = plan_jerk_limited(curve, stop_u, stop_dwell, stop_segment, feed_of_u, lim)
         return mended() if mend_swings else law
-    u, s, ds, speed_u, stops, geo, cap = _laid_out(curve, stop_u, feed_of_u, lim, jerk=False, tight=tight)
-    y = _greatest(cap, stops, ds, _Budgets(geo, len(ds), lim, 0.0))
-    return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, 0.0, lim.period)
+    return trapezoid_laws(curve, stop_u, stop_dwell, stop_segment, feed_of_u, lim)(tight)
+
+
+def trapezoid_laws(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
+                   feed_of_u, lim: PathLimits) -> Callable[[np.ndarray | None], TimeLaw]:
+    """``plan_time_law`` without a jerk limit as a function of ``tight``: the grid, its geometry, caps and
+    budget maps are laid out once for all the ranges a caller tries (the planner: up to three per curve)."""
+    u, s, ds, speed_u, stops, geo, cap_of = _laid_out(curve, stop_u, feed_of_u, lim, jerk=False)
+    maps = _Budgets(geo, len(ds), lim, 0.0).maps(ds)
+
+    def law(tight: np.ndarray | None = None) -> TimeLaw:
+        y = _greatest(cap_of(tight), stops, maps)
+        return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, 0.0, lim.period)
+    return law
 
 
 def plan_jerk_limited(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
@@ -583,10 +595,9 @@ def plan_jerk_limited(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.nd
     return first, mended
 
 
-def _laid_out(curve: PlannedCurve, stop_u: np.ndarray, feed_of_u, lim: PathLimits, jerk: bool,
-              tight: np.ndarray | None = None):
-    """The grid (u, s, ds, ds/du at the nodes, stop nodes), its geometry and its speed^2 caps (``tight``: as in
-    ``plan_time_law``)."""
+def _laid_out(curve: PlannedCurve, stop_u: np.ndarray, feed_of_u, lim: PathLimits, jerk: bool):
+    """The grid (u, s, ds, ds/du at the nodes, stop nodes), its geometry and its speed^2 caps; without a jerk
+    limit a function of ``tight`` (as in ``plan_time_law``) that gives them."""
     u = _grid(curve, stop_u, _LINE_STEP_JERK if jerk else _LINE_STEP, _TURN_STEP if jerk else _TURN_STEP_TRAPEZOID)
     du = np.diff(u)
     if np.any(du <= 0):
@@ -602,10 +613,14 @@ def _laid_out(curve: PlannedCurve, stop_u: np.ndarray, feed_of_u, lim: PathLimit
     feed = np.tile(feed_of_u(0.5 * (u[:-1] + u[1:])), 3)
     y_vel, y_acc = _caps(geo, feed, lim, jerk)
     y_vel, y_acc = np.min(y_vel.reshape(3, m), axis=0), np.min(y_acc.reshape(3, m), axis=0)
-    if not jerk:
-        y_acc = np.where(_within(u, tight), y_acc, np.min(_tangent_cap(geo, lim).reshape(3, m), axis=0))
-    cap = np.minimum(y_vel, _RHO * y_acc)
-    return u, s, ds, np.r_[sp[:m], sp[-1]], np.searchsorted(u, stop_u), geo, cap
+    grid = u, s, ds, np.r_[sp[:m], sp[-1]], np.searchsorted(u, stop_u), geo
+    if jerk:
+        return *grid, np.minimum(y_vel, _RHO * y_acc)
+    y_tangent = np.min(_tangent_cap(geo, lim).reshape(3, m), axis=0)
+
+    def cap_of(tight: np.ndarray | None) -> np.ndarray:
+        return np.minimum(y_vel, _RHO * np.where(_within(u, tight), y_acc, y_tangent))
+    return *grid, cap_of
 
 
 class _JerkLimited:
