@@ -400,6 +400,7 @@ class _Budgets:
         p3 = None if g.p3 is None else worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
         self.window = window
+        self._maps: tuple[np.ndarray, tuple] | None = None  # (ds, maps(ds)): the planner asks again per tight range
         # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
         self.axes = []
         for i in range(3):
@@ -439,6 +440,8 @@ class _Budgets:
         of each over the three at the larger end's: round a turn the tangent and the normal load an axis most
         at different points, and speeding up from rest the speed^2 at one end is far from the other's
         (3dtest: 15.1235 -> 15.1141 s of feed motion by the law)."""
+        if self._maps is not None and self._maps[0] is ds:
+            return self._maps[1]
         h = 2.0 * ds
         m = len(ds)
         down: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
@@ -461,6 +464,7 @@ class _Budgets:
                     den = 1.0 - hc * w
                     a.append((1.0 + hc * (1.0 - w)) / den)
                     b.append(h * alpha[q] / den)
+        self._maps = ds, (down, up)
         return down, up
 
     @cached_property
@@ -529,14 +533,14 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     return low, budget
 
 
-def _greatest(cap: np.ndarray, stops: np.ndarray, maps) -> np.ndarray:
+def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budgets) -> np.ndarray:
     """Without a jerk limit: the fastest profile each interval of which keeps its budgets at its own speeds,
-    the normal terms that help counted at the smaller end's speed (``maps``: ``_Budgets.maps``): one backward pass for
+    the normal terms that help counted at the smaller end's speed (``_Budgets.maps``): one backward pass for
     the largest speed^2 from which the tool can still slow down to every cap ahead, one forward pass for the
     largest it can speed up to, each solved exactly (flowmc.motion.capped_recursion)."""
     node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
     node_cap[stops] = 0.0
-    down, up = maps
+    down, up = budgets.maps(ds)
     reach = descend(node_cap, *down)[::-1]
     return descend(reach, [a[::-1] for a in up[0]], [b[::-1] for b in up[1]], guess=reach)[::-1]
 
@@ -566,10 +570,10 @@ def trapezoid_laws(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarr
     """``plan_time_law`` without a jerk limit as a function of ``tight``: the grid, its geometry, caps and
     budget maps are laid out once for all the ranges a caller tries (the planner: up to three per curve)."""
     u, s, ds, speed_u, stops, geo, cap_of = _laid_out(curve, stop_u, feed_of_u, lim, jerk=False)
-    maps = _Budgets(geo, len(ds), lim, 0.0).maps(ds)
+    budgets = _Budgets(geo, len(ds), lim, 0.0)
 
     def law(tight: np.ndarray | None = None) -> TimeLaw:
-        y = _greatest(cap_of(tight), stops, maps)
+        y = _greatest(cap_of(tight), stops, ds, budgets)
         return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, 0.0, lim.period)
     return law
 

@@ -100,9 +100,10 @@ def test_a_fitted_run_whose_curvature_passes_through_zero_is_offset_on_one_side(
     # u = 106 mm the plan was 89 ms slower than not reshaped; offset on one side it is faster
     from flowmc.motion.gcode import read_gcode
     from flowmc.motion.limits import PathLimits
-    from flowmc.motion.planner import _feed, plan_time_law
+    from flowmc.motion.planner import _feed
     from flowmc.motion.reshape import _clock, _reshape_stretch, _splice
     from flowmc.motion.smoothing import fit_tolerance, raw_curve, smooth_path
+    from flowmc.motion.timelaw import plan_time_law
 
     path = read_gcode("/usr/share/linuxcnc/ncfiles/spiral.ngc").with_feed(200.0)
     lim = PathLimits.of(machine())
