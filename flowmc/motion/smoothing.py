@@ -24,15 +24,15 @@ across many segments. Here the smoothing works on *runs*, not corners:
    curvature-continuous), and ``Smoothed.stopped`` carries the same smoothing with those corners stopped at.
 
 The fit is a penalised least-squares B-spline (a P-spline: Eilers and Marx, "Flexible smoothing with
-B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of the
-control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or, for
-jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of curvature: what
-per-axis jerk pays for; not on zigzags of lines shorter than the tolerance). The tolerance is held as an
-L-infinity bound by iteratively re-weighting the data points that stray (the approach to approximation
-within a given tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4, with a
-smoothing penalty instead of knot insertion); it follows the global micro-segment smoothing of CNC tool
-paths by curvature-continuous splines, as in Erkorkmaz and Altintas, "High speed CNC system design. Part
-I", Int. J. Machine Tools & Manufacture 41 (2001), and Yang and Yau / Bi et al. on G01 fitting within a
+B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of
+the control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or,
+for jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of
+curvature: what per-axis jerk pays for). The tolerance is held as an L-infinity bound by
+iteratively re-weighting the data points that stray (the approach to approximation within a given
+tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4, with a smoothing penalty
+instead of knot insertion); it follows the global micro-segment smoothing of CNC tool paths by
+curvature-continuous splines, as in Erkorkmaz and Altintas, "High speed CNC system design. Part I",
+Int. J. Machine Tools & Manufacture 41 (2001), and Yang and Yau / Bi et al. on G01 fitting within a
 chord tolerance.
 
 The spline is parameterised by the programmed path's arc length over the run, and every data point
@@ -95,7 +95,6 @@ _ELL_SEGMENTS_JERK = 2.2  # ... for jerk-limited fits: chord ripple in the curva
 _STEADY = 0.5  # a trapezoid run whose net turning is at least this share of its total turning is fitted with the
 # third-difference penalty (its curvature is steady: bending is not what there is to smooth away; see _steady)
 _ELL_TOL = 20.0  # and at least this many tolerances: details below the tolerance are smoothed away
-_ELL_TOL_FINE = 10.0  # ... for a jerk-limited fit of a zigzag of lines shorter than the tolerance (see smooth_path)
 _BLUR = 41  # control points over which the smoothing's local scale is evened out
 _REACH = 2.0  # smoothing lengths either side of a stray point over which smoothing is reduced
 
@@ -336,9 +335,9 @@ class _RunFitter:
     """
 
     def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2,
-                 ell_segments: float = _ELL_SEGMENTS, ell_tol: float = _ELL_TOL):
+                 ell_segments: float = _ELL_SEGMENTS):
         self.raw, self.ua, self.ub, self.tol, self.h = raw, ua, ub, tol, np.broadcast_to(h, ua.shape)
-        self.order, self.stencil, self.ell_segments, self.ell_tol = order, _STENCILS[order], ell_segments, ell_tol
+        self.order, self.stencil, self.ell_segments = order, _STENCILS[order], ell_segments
         self.free_a, self.free_b = free_a, free_b
         n_runs = len(ua)
         length = ub - ua
@@ -426,7 +425,7 @@ class _RunFitter:
         per_cp = per_cp / np.maximum(np.bincount(self.span_of, minlength=total), 1)
         per_cp = moving_means(per_cp, ncp, 41)
         hd = hr[self.diff_run]
-        ell = np.clip(np.maximum(self.ell_segments * per_cp[self.diff_start + 1], self.ell_tol * self.tol), hd, _ELL * hd)
+        ell = np.clip(np.maximum(self.ell_segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
         self.mu = ell**(2 * self.order) / (0.25 * hd * hd**(2 * self.order - 1))
         self.floor = (hd / ell) ** (2 * self.order)
         reach = np.ceil(_REACH * ell / hd).astype(int)
@@ -597,7 +596,7 @@ class _RunFitter:
         """A fitter for runs ``keep`` (a mask) alone, with their data's parameters ``t``, their widths and
         their smoothing so far: the same data, so it goes on fitting them as this one would."""
         sub = _RunFitter(self.raw, self.ua[keep], self.ub[keep], self.free_a[keep], self.free_b[keep], self.tol,
-                         self.h[keep], self.order, self.ell_segments, self.ell_tol)
+                         self.h[keep], self.order, self.ell_segments)
         sub.scale = self.scale[keep[self.diff_run]]
         return sub, t[keep[self.run_of]], width[keep]
 
@@ -997,12 +996,8 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
         typical = range_medians(widths, lo_i, np.maximum(hi_i, lo_i + 1))
         h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
-        # the penalty: third differences for steadily turning runs and for jerk-limited plans, else second. A
-        # jerk-limited fit of a zigzag of lines shorter than the tolerance (flowsnake's 0.014 mm Koch lines) takes
-        # the second too, with a shorter least smoothing length: its curls are what there is to smooth away, and
-        # bending them out passes them faster (flowsnake, S-curve: 5.829 -> 5.687 s of feed; 7-14 tolerances give
-        # 5.666-5.815, the third-difference penalty 5.797-5.829)
-        steady = _steady(el, runs.first[fits], runs.last[fits]) | (g2 & (typical >= tolerance))
+        # the penalty: third differences for jerk-limited plans and for steadily turning runs, else second
+        steady = g2 | _steady(el, runs.first[fits], runs.last[fits])
         pending = fits
         devs: list[float] = []
         for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
@@ -1013,8 +1008,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
                     continue
                 fit = _RunFitter(raw, runs.ua[these], runs.ub[these], runs.free_a[these], runs.free_b[these], tol_fit,
                                  h[np.searchsorted(fits, these)], order=3 if third else 2,
-                                 ell_segments=_ELL_SEGMENTS_JERK if g2 else _ELL_SEGMENTS,
-                                 ell_tol=_ELL_TOL_FINE if g2 and not third else _ELL_TOL).fit()
+                                 ell_segments=_ELL_SEGMENTS_JERK if g2 else _ELL_SEGMENTS).fit()
                 done = np.flatnonzero(fit.ok)
                 for x, pu, coef in _runs_polys(fit, done) if len(done) else []:
                     fit_parts.append((pu, coef, np.diff(x)))
