@@ -27,7 +27,8 @@ The fit is a penalised least-squares B-spline (a P-spline: Eilers and Marx, "Fle
 B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of
 the control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or,
 for jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of
-curvature: what per-axis jerk pays for). The tolerance is held as an L-infinity bound by
+curvature: what per-axis jerk pays for), and on both where a jerk-limited run's waves or zigzags are finer than
+the tolerance (flowsnake's Koch curls: bending is the detail there is to smooth away). The tolerance is held as an L-infinity bound by
 iteratively re-weighting the data points that stray (the approach to approximation within a given
 tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4, with a smoothing penalty
 instead of knot insertion); it follows the global micro-segment smoothing of CNC tool paths by
@@ -94,6 +95,11 @@ _ELL_SEGMENTS = 1.5  # initial smoothing length in programmed segment lengths
 _ELL_SEGMENTS_JERK = 2.2  # ... for jerk-limited fits: chord ripple in the curvature's slope costs speed as v^3
 _STEADY = 0.5  # a trapezoid run whose net turning is at least this share of its total turning is fitted with the
 # third-difference penalty (its curvature is steady: bending is not what there is to smooth away; see _steady)
+_BEND = 50.0  # jerk-limited fits of waves and zigzags of fine detail also penalise bending, at this share of
+# l^4 (an order-2 smoothing length 2.7 times l): flowsnake's S-curve 5.829 -> 5.527 s of feed (1 -> 5.785, 10 -> 5.701,
+# 30 -> 5.617, 40-60 5.527-5.536; at 100 a retimed stretch broke a limit and was dropped)
+_FINE_DETAIL = 1.0  # ... where the run's typical programmed segment is shorter than this many tolerances (flowsnake's
+# 0.014 mm lines; raster's 0.25 mm waves are its geometry, and their S-curve took 27.171 -> 27.679 s with the bending)
 _ELL_TOL = 20.0  # and at least this many tolerances: details below the tolerance are smoothed away
 _BLUR = 41  # control points over which the smoothing's local scale is evened out
 _REACH = 2.0  # smoothing lengths either side of a stray point over which smoothing is reduced
@@ -335,9 +341,9 @@ class _RunFitter:
     """
 
     def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2,
-                 ell_segments: float = _ELL_SEGMENTS):
+                 ell_segments: float = _ELL_SEGMENTS, bend: float = 0.0):
         self.raw, self.ua, self.ub, self.tol, self.h = raw, ua, ub, tol, np.broadcast_to(h, ua.shape)
-        self.order, self.stencil, self.ell_segments = order, _STENCILS[order], ell_segments
+        self.order, self.stencil, self.ell_segments, self.bend = order, _STENCILS[order], ell_segments, bend
         self.free_a, self.free_b = free_a, free_b
         n_runs = len(ua)
         length = ub - ua
@@ -427,6 +433,7 @@ class _RunFitter:
         hd = hr[self.diff_run]
         ell = np.clip(np.maximum(self.ell_segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
         self.mu = ell**(2 * self.order) / (0.25 * hd * hd**(2 * self.order - 1))
+        self.mu_bend = self.bend * ell**4 / (0.25 * hd**4)
         self.floor = (hd / ell) ** (2 * self.order)
         reach = np.ceil(_REACH * ell / hd).astype(int)
         first_cp, last_cp = offset[self.diff_run], offset[self.diff_run] + ncp[self.diff_run] - 1
@@ -480,11 +487,16 @@ class _RunFitter:
         w_at = np.zeros(total)  # each penalty row's weight at its first control point, zero between runs
         w_at[np.searchsorted(cps, self.diff_start[rows])] = self.mu[rows] * self.scale[rows]
         diag = [d[cps[:total - k]] for k, d in enumerate(self.data_diag)]
-        stencil = self.stencil
-        for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
-            for q_ in range(p_, len(stencil)):
-                k = q_ - p_
-                diag[k][p_:] += stencil[p_] * stencil[q_] * w_at[:total - k - p_]
+        stencils = [(self.stencil, w_at)]
+        if self.bend:
+            w_bend = np.zeros(total)
+            w_bend[np.searchsorted(cps, self.diff_start[rows])] = self.mu_bend[rows] * self.scale[rows]
+            stencils.append((_STENCILS[2], w_bend))
+        for stencil, w in stencils:
+            for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
+                for q_ in range(p_, len(stencil)):
+                    k = q_ - p_
+                    diag[k][p_:] += stencil[p_] * stencil[q_] * w[:total - k - p_]
         # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
         x = self.fixed_x[cps]
         rhs = self.rhs_data[cps] - diag[0][:, None] * x
@@ -596,7 +608,7 @@ class _RunFitter:
         """A fitter for runs ``keep`` (a mask) alone, with their data's parameters ``t``, their widths and
         their smoothing so far: the same data, so it goes on fitting them as this one would."""
         sub = _RunFitter(self.raw, self.ua[keep], self.ub[keep], self.free_a[keep], self.free_b[keep], self.tol,
-                         self.h[keep], self.order, self.ell_segments)
+                         self.h[keep], self.order, self.ell_segments, self.bend)
         sub.scale = self.scale[keep[self.diff_run]]
         return sub, t[keep[self.run_of]], width[keep]
 
@@ -996,19 +1008,22 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
         typical = range_medians(widths, lo_i, np.maximum(hi_i, lo_i + 1))
         h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
-        # the penalty: third differences for jerk-limited plans and for steadily turning runs, else second
-        steady = g2 | _steady(el, runs.first[fits], runs.last[fits])
+        # the penalty: second differences (kind 0), third for jerk-limited plans and for steadily turning runs (1),
+        # both on jerk-limited runs of waves and zigzags finer than the tolerance (2)
+        steady = _steady(el, runs.first[fits], runs.last[fits])
+        kind = np.where(g2, np.where(steady | (typical > _FINE_DETAIL * tolerance), 1, 2), steady.astype(int))
         pending = fits
         devs: list[float] = []
         for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
             missed = []
-            for third in (False, True):
-                these = pending[steady[np.searchsorted(fits, pending)] == third]
+            for k in range(3):
+                these = pending[kind[np.searchsorted(fits, pending)] == k]
                 if not len(these):
                     continue
                 fit = _RunFitter(raw, runs.ua[these], runs.ub[these], runs.free_a[these], runs.free_b[these], tol_fit,
-                                 h[np.searchsorted(fits, these)], order=3 if third else 2,
-                                 ell_segments=_ELL_SEGMENTS_JERK if g2 else _ELL_SEGMENTS).fit()
+                                 h[np.searchsorted(fits, these)], order=2 if k == 0 else 3,
+                                 ell_segments=_ELL_SEGMENTS_JERK if g2 else _ELL_SEGMENTS,
+                                 bend=_BEND if k == 2 else 0.0).fit()
                 done = np.flatnonzero(fit.ok)
                 for x, pu, coef in _runs_polys(fit, done) if len(done) else []:
                     fit_parts.append((pu, coef, np.diff(x)))
