@@ -24,17 +24,17 @@ across many segments. Here the smoothing works on *runs*, not corners:
    curvature-continuous), and ``Smoothed.stopped`` carries the same smoothing with those corners stopped at.
 
 The fit is a penalised least-squares B-spline (a P-spline: Eilers and Marx, "Flexible smoothing with
-B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of
-the control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or,
-for jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of
-curvature: what per-axis jerk pays for), and on both where a jerk-limited run's waves or zigzags are finer than
-the tolerance (flowsnake's Koch curls: bending is the detail there is to smooth away). The tolerance is held as an L-infinity bound by
-iteratively re-weighting the data points that stray (the approach to approximation within a given
-tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4, with a smoothing penalty
-instead of knot insertion); it follows the global micro-segment smoothing of CNC tool paths by
-curvature-continuous splines, as in Erkorkmaz and Altintas, "High speed CNC system design. Part I",
-Int. J. Machine Tools & Manufacture 41 (2001), and Yang and Yau / Bi et al. on G01 fitting within a
-chord tolerance.
+B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of the
+control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or, for
+jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of curvature: what
+per-axis jerk pays for), and on both where a jerk-limited run's waves or zigzags are finer than the
+tolerance (flowsnake's Koch curls: bending is the detail to smooth away there). The tolerance is held as
+an L-infinity bound by iteratively re-weighting the data points that stray (the approach to
+approximation within a given tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4,
+with a smoothing penalty instead of knot insertion); it follows the global micro-segment smoothing of
+CNC tool paths by curvature-continuous splines, as in Erkorkmaz and Altintas, "High speed CNC system
+design. Part I", Int. J. Machine Tools & Manufacture 41 (2001), and Yang and Yau / Bi et al. on G01
+fitting within a chord tolerance.
 
 The spline is parameterised by the programmed path's arc length over the run, and every data point
 q(u) of the path is held within the tolerance of the curve point p(u) at the same u. That bound
