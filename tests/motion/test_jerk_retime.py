@@ -133,11 +133,18 @@ def test_a_retimed_stretch_that_breaks_a_limit_is_retimed_again_without_that_par
     machine = cam_machine()
     plan = plan_smooth(gosper(3, 0.03), machine, tolerance=0.05, profile="scurve")
     curve, lim = plan.smoothed.curve, PathLimits.of(machine)
-    real_over, real_split, calls, parts = jerk_retime._over_limits, jerk_retime._split, [], []
+    real_over, real_split, real_stitch = jerk_retime._over_limits, jerk_retime._split, jerk_retime._stitch
+    calls, parts, spans = [], [], []
 
-    def over_once(positions, lim_):
+    def stitch(*args):
+        out = real_stitch(*args)
+        spans.append(out[2])
+        return out
+
+    def over_once(positions, lim_):  # first: a break in the middle of the longest retimed window
         calls.append(len(positions))
-        return np.array([len(positions) // 2]) if len(calls) == 1 else real_over(positions, lim_)
+        a, b = max(spans[0], key=lambda ab: ab[1] - ab[0])
+        return np.array([int(0.5 * (a + b) / machine.period)]) if len(calls) == 1 else real_over(positions, lim_)
 
     def split(k0, k1, at):
         parts.append(real_split(k0, k1, at))
@@ -145,6 +152,7 @@ def test_a_retimed_stretch_that_breaks_a_limit_is_retimed_again_without_that_par
 
     monkeypatch.setattr(jerk_retime, "_over_limits", over_once)
     monkeypatch.setattr(jerk_retime, "_split", split)
+    monkeypatch.setattr(jerk_retime, "_stitch", stitch)
     out = jerk_retime.retime_curvature_bound(plan.law, curve, lim, lambda u: plan.smoothed.seg_feed[curve.segment_at(u)],
                                              machine.period)
     assert out is not None
