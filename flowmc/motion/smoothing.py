@@ -88,6 +88,7 @@ _END_BENT = 0.5 * math.pi  # rad: where that path turns more than this (a tight 
 _END_TURN = 0.6  # misjudges the end's direction: the span is shortened until it turns at most this
 _TOL_SHARE = 0.99  # of the tolerance left for smoothing, after the sampled chords sagitta
 _KNOT_TOL = 2.0  # least knot spacing, in tolerances
+_KNOT_TOL_FINE = 1.0  # ... for fits with the bending penalty (flowsnake: 5.488 s at 2, 5.406 at 1, 5.424 at 0.75 or 1.25)
 _KNOT_SEGMENT = 0.4  # knot spacing in a run's typical programmed segment lengths
 _KNOT_MAX = 10.0  # most knot spacing, in tolerances
 _REFINE_KNOTS = 2  # times a run that misses the tolerance is fitted again with knots twice as dense
@@ -1042,6 +1043,7 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         # both on jerk-limited runs of waves and zigzags finer than the tolerance (2)
         steady = _steady(el, runs.first[fits], runs.last[fits])
         kind = np.where(g2, np.where(steady | (typical > _FINE_DETAIL * tolerance), 1, 2), steady.astype(int))
+        h = np.where(kind == 2, np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL_FINE * tolerance, _KNOT_MAX * tolerance), h)
         pending = fits
         devs: list[float] = []
         for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
