@@ -22,7 +22,8 @@ unknowns, spaced about three sampling periods' travel; the constraints are held 
 each piece, with the geometry evaluated there. The stretch starts and ends on the S-curve plan's own
 motion (three control points fixed to it at each end), and the samples before and after are the plan's,
 shifted in time. The result is kept only if its sampled setpoints keep every axis within its jerk,
-acceleration and velocity limits (checked here, from the samples) and it is faster. Around the jerk-limited
+acceleration and velocity limits (checked here, from the samples) and it is faster; where they break one, the
+stretch is retimed again without the part about the break, which runs as planned. Around the jerk-limited
 corner blends of flowmc.motion.smoothing the time law holds the speed at its lowest over the whole blend;
 there the stretches run from the top speed before a blend to the top speed after it.
 """
@@ -53,6 +54,7 @@ _P3_BOUND, _BOUND_SHARE = 0.5, 0.5  # a stretch is retimed where |P3_i| v^3 is o
 _MIN_SAMPLES = 50
 _MIN_SHARE = 0.01  # the stretches retimed make up at least this share of the plan's time
 _SETTLED = 0.5  # the retimed part runs where the speed is over this share of the stretch's median
+_SPLIT_GAP = 25  # samples either side of where a retimed stretch broke a limit that are left as planned
 _END_FIT = 3  # samples each side of a stretch's ends the boundary state (u, u', u'') is fitted on
 
 
@@ -119,13 +121,19 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
     # are not worth their cost (3D_Chips: two of 0.29 s gained 14 ms of 188 s for 0.2 s of CPU)
     if sum(k1 - k0 for k0, k1 in bound_stretches) < _MIN_SHARE * n:
         return None
-    windows = []
-    for k0, k1 in bound_stretches:
-        strict = any(k0 <= a and b <= k1 for a, b in at_blends)
-        win = _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict, effort)
-        if win is not None and win[1] < (k1 - k0) * period * (1.0 - 1e-6):
-            windows.append((k0, k1, *win))
-    # a window whose samples (or the joins to the plan's) break a limit is left as planned
+
+    def retimed(spans: list[tuple[int, int]]) -> list[tuple]:
+        out = []
+        for k0, k1 in spans:
+            strict = any(k0 <= a and b <= k1 for a, b in at_blends)
+            win = _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict, effort)
+            if win is not None and win[1] < (k1 - k0) * period * (1.0 - 1e-6):
+                out.append((k0, k1, *win))
+        return out
+
+    windows = retimed(bound_stretches)
+    # a window whose samples (or the joins to the plan's) break a limit is retimed again without the part about
+    # them, which is left as planned
     while windows:
         s_new, seg_new, spans = _stitch(law, ph, windows, total, period)
         u = law.u_sampled(s_new, curve)
@@ -134,12 +142,25 @@ def retime_curvature_bound(law: TimeLaw, curve: PlannedCurve, lim: PathLimits, f
         if not len(bad):
             return u, seg_new, pos
         t_bad = bad * period
-        keep = [w for w, (a, b) in zip(windows, spans)
-                if not np.any((t_bad >= a - 4 * period) & (t_bad <= b + period))]
+        keep, split = [], []
+        for w, (a, b) in zip(windows, spans):
+            hit = (t_bad >= a - 4 * period) & (t_bad <= b + period)
+            if hit.any():
+                split += _split(w[0], w[1], np.searchsorted(s, s_new[bad[hit]]))
+            else:
+                keep.append(w)
         if len(keep) == len(windows):
             return None
-        windows = keep
+        windows = sorted(keep + retimed(split), key=lambda w: w[0])
     return None
+
+
+def _split(k0: int, k1: int, at: np.ndarray) -> list[tuple[int, int]]:
+    """The parts of sample range [k0, k1] more than _SPLIT_GAP samples from every sample ``at`` (plan samples
+    where its retimed motion broke a limit), each at least _MIN_SAMPLES long."""
+    cut = np.sort(np.clip(at, k0, k1))
+    lo, hi = np.r_[k0, cut + _SPLIT_GAP], np.r_[cut - _SPLIT_GAP, k1]
+    return [(int(a), int(b)) for a, b in zip(lo, hi) if b - a >= _MIN_SAMPLES]
 
 
 def _around_blends(law: TimeLaw, s: np.ndarray, v: np.ndarray, moving: np.ndarray,

@@ -24,22 +24,28 @@ across many segments. Here the smoothing works on *runs*, not corners:
    curvature-continuous), and ``Smoothed.stopped`` carries the same smoothing with those corners stopped at.
 
 The fit is a penalised least-squares B-spline (a P-spline: Eilers and Marx, "Flexible smoothing with
-B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of
-the control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or,
-for jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of
-curvature: what per-axis jerk pays for). The tolerance is held as an L-infinity bound by
-iteratively re-weighting the data points that stray (the approach to approximation within a given
-tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4, with a smoothing penalty
-instead of knot insertion); it follows the global micro-segment smoothing of CNC tool paths by
-curvature-continuous splines, as in Erkorkmaz and Altintas, "High speed CNC system design. Part I",
-Int. J. Machine Tools & Manufacture 41 (2001), and Yang and Yau / Bi et al. on G01 fitting within a
-chord tolerance.
+B-splines and penalties", Statistical Science 11, 1996) with a penalty on the second differences of the
+control points (about the integral of |p''|^2, the bending: what acceleration limits pay for) or, for
+jerk-limited plans, on the third (about the integral of |p'''|^2, the rate of change of curvature: what
+per-axis jerk pays for), and on both where a jerk-limited run's waves or zigzags are finer than the
+tolerance (flowsnake's Koch curls: bending is the detail to smooth away there). The tolerance is held as
+an L-infinity bound by iteratively re-weighting the data points that stray (the approach to
+approximation within a given tolerance of Piegl and Tiller, The NURBS Book, 2nd ed. 1997, section 9.4,
+with a smoothing penalty instead of knot insertion); it follows the global micro-segment smoothing of
+CNC tool paths by curvature-continuous splines, as in Erkorkmaz and Altintas, "High speed CNC system
+design. Part I", Int. J. Machine Tools & Manufacture 41 (2001), and Yang and Yau / Bi et al. on G01
+fitting within a chord tolerance.
 
 The spline is parameterised by the programmed path's arc length over the run, and every data point
 q(u) of the path is held within the tolerance of the curve point p(u) at the same u. That bound
 works both ways: every point of the curve is within the tolerance of the path (of q at its u) and
 every point of the path within the tolerance of the curve. Between data points the bound grows by
-at most |p''| du^2 / 8, which the data spacing keeps negligible.
+at most |p''| du^2 / 8, which the data spacing keeps negligible. Fits with the bending penalty (fine waves
+and zigzags of jerk-limited plans) hold each way on its own, so the curve may slide along the path and use
+the band on both sides: each data point within the tolerance of the curve point one Newton step along the
+tangent from its u (or of p(u)), and each p(u) within the tolerance of one of the data points _NEAR either
+side (flowsnake: the curve comes within 0.035 mm of the path, was 0.030, the path within 0.049 mm of it;
+S-curve 5.527 -> 5.488 s of feed).
 
 A run whose fit does not meet the tolerance within the iteration budget is not smoothed: the
 planner stops at its corners (reported in ``Smoothed.failed``; none of the benchmark programs needs it).
@@ -82,6 +88,7 @@ _END_BENT = 0.5 * math.pi  # rad: where that path turns more than this (a tight 
 _END_TURN = 0.6  # misjudges the end's direction: the span is shortened until it turns at most this
 _TOL_SHARE = 0.99  # of the tolerance left for smoothing, after the sampled chords sagitta
 _KNOT_TOL = 2.0  # least knot spacing, in tolerances
+_KNOT_TOL_FINE = 1.0  # ... for fits with the bending penalty (flowsnake: 5.488 s at 2, 5.406 at 1, 5.424 at 0.75 or 1.25)
 _KNOT_SEGMENT = 0.4  # knot spacing in a run's typical programmed segment lengths
 _KNOT_MAX = 10.0  # most knot spacing, in tolerances
 _REFINE_KNOTS = 2  # times a run that misses the tolerance is fitted again with knots twice as dense
@@ -94,6 +101,13 @@ _ELL_SEGMENTS = 1.5  # initial smoothing length in programmed segment lengths
 _ELL_SEGMENTS_JERK = 2.2  # ... for jerk-limited fits: chord ripple in the curvature's slope costs speed as v^3
 _STEADY = 0.5  # a trapezoid run whose net turning is at least this share of its total turning is fitted with the
 # third-difference penalty (its curvature is steady: bending is not what there is to smooth away; see _steady)
+_BEND = 50.0  # jerk-limited fits of waves and zigzags of fine detail also penalise bending, at this share of
+# l^4 (an order-2 smoothing length 2.7 times l): flowsnake's S-curve 5.829 -> 5.527 s of feed (1 -> 5.785, 10 -> 5.701,
+# 30 -> 5.617, 40-60 5.527-5.536; at 100 a retimed stretch broke a limit and was dropped)
+_FINE_DETAIL = 1.0  # ... where the run's typical programmed segment is shorter than this many tolerances (flowsnake's
+# 0.014 mm lines; raster's 0.25 mm waves are its geometry, and their S-curve took 27.171 -> 27.679 s with the bending)
+_NEAR = 3  # data points either side whose distance to the curve at a data point's parameter bounds the curve's
+# distance to the path, in fits that let the curve slide along the path (those with the bending penalty)
 _ELL_TOL = 20.0  # and at least this many tolerances: details below the tolerance are smoothed away
 _BLUR = 41  # control points over which the smoothing's local scale is evened out
 _REACH = 2.0  # smoothing lengths either side of a stray point over which smoothing is reduced
@@ -335,9 +349,9 @@ class _RunFitter:
     """
 
     def __init__(self, raw: PlannedCurve, ua, ub, free_a, free_b, tol: float, h: np.ndarray, order: int = 2,
-                 ell_segments: float = _ELL_SEGMENTS):
+                 ell_segments: float = _ELL_SEGMENTS, bend: float = 0.0):
         self.raw, self.ua, self.ub, self.tol, self.h = raw, ua, ub, tol, np.broadcast_to(h, ua.shape)
-        self.order, self.stencil, self.ell_segments = order, _STENCILS[order], ell_segments
+        self.order, self.stencil, self.ell_segments, self.bend = order, _STENCILS[order], ell_segments, bend
         self.free_a, self.free_b = free_a, free_b
         n_runs = len(ua)
         length = ub - ua
@@ -396,6 +410,7 @@ class _RunFitter:
         self.basis = RunKnots(ua, width, spans, offset)
         self.knots = self.basis.knots
         x = np.clip(t, ua[run_of], (ua + width)[run_of])
+        self.x_data, self.width = x, width
         span = self.basis.span(run_of, x)
         first = self.basis.first_cp(run_of, span)
         # the design matrix, row i: basis values b[:, i] on control points first[i] .. first[i] + 3
@@ -427,6 +442,7 @@ class _RunFitter:
         hd = hr[self.diff_run]
         ell = np.clip(np.maximum(self.ell_segments * per_cp[self.diff_start + 1], _ELL_TOL * self.tol), hd, _ELL * hd)
         self.mu = ell**(2 * self.order) / (0.25 * hd * hd**(2 * self.order - 1))
+        self.mu_bend = self.bend * ell**4 / (0.25 * hd**4)
         self.floor = (hd / ell) ** (2 * self.order)
         reach = np.ceil(_REACH * ell / hd).astype(int)
         first_cp, last_cp = offset[self.diff_run], offset[self.diff_run] + ncp[self.diff_run] - 1
@@ -469,7 +485,29 @@ class _RunFitter:
         for a in range(1, 4):
             val += np.take(by_axis, cp[a], axis=1) * b[a]
         d = val - q
-        return np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        dist = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        if self.bend:  # the curve may slide along the path: each way bounded on its own, both below dist
+            dist = np.maximum(self._from_path(coef, rows, d, dist), self._to_path(val, rows, dist))
+        return dist
+
+    def _from_path(self, coef: np.ndarray, rows: np.ndarray, d: np.ndarray, dist: np.ndarray) -> np.ndarray:
+        """Distance from data points ``rows`` to the curve, bounded from above by the curve point one Newton step
+        along the tangent from their parameter (or the one at it, ``dist``, where nearer)."""
+        run, x = self.run_of[rows], self.x_data[rows]
+        p1 = self.basis.evaluate(coef, run, x, 1, only=(1,))[0].T
+        lo, hi = self.ua[run], self.ua[run] + self.width[run]
+        x2 = np.clip(x - (d * p1).sum(axis=0) / np.maximum((p1 * p1).sum(axis=0), 1e-300), lo, hi)
+        e = self.basis.evaluate(coef, run, x2, 0)[0].T - self.q_rows[:, rows]
+        return np.minimum(dist, np.sqrt((e * e).sum(axis=0)))
+
+    def _to_path(self, val: np.ndarray, rows: np.ndarray, dist: np.ndarray) -> np.ndarray:
+        """Distance from the curve at data points ``rows``' parameters to the path, bounded from above by the
+        nearest of the data points _NEAR either side (all on the path)."""
+        out = dist
+        for k in range(-_NEAR, _NEAR + 1):
+            e = val - self.q_rows[:, np.clip(rows + k, 0, len(self.pu) - 1)]
+            out = np.minimum(out, np.sqrt((e * e).sum(axis=0)))
+        return out
 
     def _solve(self, cps: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """The banded normal equations (upper form for solveh_banded) of the runs whose control points are
@@ -480,11 +518,16 @@ class _RunFitter:
         w_at = np.zeros(total)  # each penalty row's weight at its first control point, zero between runs
         w_at[np.searchsorted(cps, self.diff_start[rows])] = self.mu[rows] * self.scale[rows]
         diag = [d[cps[:total - k]] for k, d in enumerate(self.data_diag)]
-        stencil = self.stencil
-        for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
-            for q_ in range(p_, len(stencil)):
-                k = q_ - p_
-                diag[k][p_:] += stencil[p_] * stencil[q_] * w_at[:total - k - p_]
+        stencils = [(self.stencil, w_at)]
+        if self.bend:
+            w_bend = np.zeros(total)
+            w_bend[np.searchsorted(cps, self.diff_start[rows])] = self.mu_bend[rows] * self.scale[rows]
+            stencils.append((_STENCILS[2], w_bend))
+        for stencil, w in stencils:
+            for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
+                for q_ in range(p_, len(stencil)):
+                    k = q_ - p_
+                    diag[k][p_:] += stencil[p_] * stencil[q_] * w[:total - k - p_]
         # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
         x = self.fixed_x[cps]
         rhs = self.rhs_data[cps] - diag[0][:, None] * x
@@ -596,7 +639,7 @@ class _RunFitter:
         """A fitter for runs ``keep`` (a mask) alone, with their data's parameters ``t``, their widths and
         their smoothing so far: the same data, so it goes on fitting them as this one would."""
         sub = _RunFitter(self.raw, self.ua[keep], self.ub[keep], self.free_a[keep], self.free_b[keep], self.tol,
-                         self.h[keep], self.order, self.ell_segments)
+                         self.h[keep], self.order, self.ell_segments, self.bend)
         sub.scale = self.scale[keep[self.diff_run]]
         return sub, t[keep[self.run_of]], width[keep]
 
@@ -996,19 +1039,23 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
         typical = range_medians(widths, lo_i, np.maximum(hi_i, lo_i + 1))
         h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
-        # the penalty: third differences for jerk-limited plans and for steadily turning runs, else second
-        steady = g2 | _steady(el, runs.first[fits], runs.last[fits])
+        # the penalty: second differences (kind 0), third for jerk-limited plans and for steadily turning runs (1),
+        # both on jerk-limited runs of waves and zigzags finer than the tolerance (2)
+        steady = _steady(el, runs.first[fits], runs.last[fits])
+        kind = np.where(g2, np.where(steady | (typical > _FINE_DETAIL * tolerance), 1, 2), steady.astype(int))
+        h = np.where(kind == 2, np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL_FINE * tolerance, _KNOT_MAX * tolerance), h)
         pending = fits
         devs: list[float] = []
         for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
             missed = []
-            for third in (False, True):
-                these = pending[steady[np.searchsorted(fits, pending)] == third]
+            for k in range(3):
+                these = pending[kind[np.searchsorted(fits, pending)] == k]
                 if not len(these):
                     continue
                 fit = _RunFitter(raw, runs.ua[these], runs.ub[these], runs.free_a[these], runs.free_b[these], tol_fit,
-                                 h[np.searchsorted(fits, these)], order=3 if third else 2,
-                                 ell_segments=_ELL_SEGMENTS_JERK if g2 else _ELL_SEGMENTS).fit()
+                                 h[np.searchsorted(fits, these)], order=2 if k == 0 else 3,
+                                 ell_segments=_ELL_SEGMENTS_JERK if g2 else _ELL_SEGMENTS,
+                                 bend=_BEND if k == 2 else 0.0).fit()
                 done = np.flatnonzero(fit.ok)
                 for x, pu, coef in _runs_polys(fit, done) if len(done) else []:
                     fit_parts.append((pu, coef, np.diff(x)))

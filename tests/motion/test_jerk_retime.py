@@ -124,3 +124,41 @@ def test_more_effort_retimes_the_same_curve_no_slower_within_every_per_axis_limi
     assert len(harder[0]) < len(planned[0])
     v, a, j = peaks(harder[2], machine.period)
     assert j <= 5000.0 and a <= 200.0 and v <= 200.0
+
+
+def test_a_retimed_stretch_that_breaks_a_limit_is_retimed_again_without_that_part(monkeypatch):
+    # the first stitched samples are made to break a limit in the middle of a stretch: the stretch is not
+    # dropped whole, its parts either side are retimed again and kept (faster than the time law alone)
+    monkeypatch.setattr(jerk_retime, "_BOUND_SHARE", 0.1)
+    machine = cam_machine()
+    plan = plan_smooth(gosper(3, 0.03), machine, tolerance=0.05, profile="scurve")
+    curve, lim = plan.smoothed.curve, PathLimits.of(machine)
+    real_over, real_split, real_stitch = jerk_retime._over_limits, jerk_retime._split, jerk_retime._stitch
+    calls, parts, spans = [], [], []
+
+    def stitch(*args):
+        out = real_stitch(*args)
+        spans.append(out[2])
+        return out
+
+    def over_once(positions, lim_):  # first: a break in the middle of the longest retimed window
+        calls.append(len(positions))
+        a, b = max(spans[0], key=lambda ab: ab[1] - ab[0])
+        return np.array([int(0.5 * (a + b) / machine.period)]) if len(calls) == 1 else real_over(positions, lim_)
+
+    def split(k0, k1, at):
+        parts.append(real_split(k0, k1, at))
+        return parts[-1]
+
+    monkeypatch.setattr(jerk_retime, "_over_limits", over_once)
+    monkeypatch.setattr(jerk_retime, "_split", split)
+    monkeypatch.setattr(jerk_retime, "_stitch", stitch)
+    out = jerk_retime.retime_curvature_bound(plan.law, curve, lim, lambda u: plan.smoothed.seg_feed[curve.segment_at(u)],
+                                             machine.period)
+    assert out is not None
+    (a0, a1), (b0, b1) = parts[0]  # the first split: two parts, 2 _SPLIT_GAP samples apart
+    assert a1 < b0 and b0 - a1 == 2 * jerk_retime._SPLIT_GAP
+    law_alone, _ = sample_time_law(plan.law, curve, machine.period)
+    assert len(out[0]) < len(law_alone)
+    v, a, j = peaks(out[2][:, :2], machine.period)
+    assert j <= 5000.0 and a <= 200.0 and v <= 200.0
