@@ -354,7 +354,11 @@ def _tangent_cap(g: _Geometry, lim: PathLimits) -> np.ndarray:
     alpha_i = amax_i / |T_i|, c_i = sign(T_i) K_i / |T_i|, and these meet while (c_j - c_i) y <= alpha_i + alpha_j
     for every pair; an axis that does not move caps y at amax_i / |K_i|. Above the normal terms' own cap
     amax_i / |K_i| the tool must speed up or slow down there (a parabola's corner blend entered at the speed
-    it was sized for: both axes at their limits all through it, the speed below that cap nowhere)."""
+    it was sized for: both axes at their limits all through it, the speed below that cap nowhere). Worked out
+    CHUNK points at a time past CHUNKED, as ``_caps``."""
+    if len(g.t) > CHUNKED:
+        return np.concatenate([_tangent_cap(_Geometry(g.t[i:i + CHUNK], g.k[i:i + CHUNK], None, g.kt[i:i + CHUNK]), lim)
+                               for i in range(0, len(g.t), CHUNK)])
     moving = g.t > 1e-9
     with np.errstate(divide="ignore", invalid="ignore"):
         alpha = np.where(moving, lim.amax / np.where(moving, g.t, 1.0), np.inf).T  # by axis: contiguous rows
