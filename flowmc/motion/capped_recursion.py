@@ -109,10 +109,11 @@ def _stacked(a: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
     whole, rest = divmod(n, _BLOCK)
     out = np.empty((_BLOCK, 2, len(a), whole + (rest > 0)))
     for k, (rows, fill) in enumerate(((a, 1.0), (b, 0.0))):
-        v = np.vstack(rows)
-        out[:, k, :, :whole] = v[:, :whole * _BLOCK].reshape(len(rows), whole, _BLOCK).transpose(2, 0, 1)
+        for i, v in enumerate(rows):  # written in place, map by map: no stacked copy first
+            out[:, k, i, :whole] = v[:whole * _BLOCK].reshape(whole, _BLOCK).T
+            if rest:
+                out[:rest, k, i, whole] = v[whole * _BLOCK:]
         if rest:
-            out[:rest, k, :, whole] = v[:, whole * _BLOCK:].T
             out[rest:, k, :, whole] = fill
     return out
 
