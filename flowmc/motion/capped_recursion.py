@@ -74,21 +74,25 @@ def _sweep(c_blk, ab_blk, x_in, at=None):
     composed maps (C, A, B)."""
     nb = c_blk.shape[1]
     big_a, big_b, big_c = np.ones(nb), np.zeros(nb), np.full(nb, np.inf)
-    cols = np.arange(nb)
     if at is not None:
         chosen = _chosen(ab_blk, np.vstack([at[1:], x_in]))
         y_blk = None
     else:
         y_blk = np.empty_like(c_blk)
         x = x_in
+        flat = ab_blk.reshape(_BLOCK, 2, -1)  # map i of block k at i * nb + k
+        cols = np.arange(nb)
     for j in range(_BLOCK - 1, -1, -1):
         if y_blk is None:
             aj, bj = chosen[j]
         else:
-            v = ab_blk[j, 0] * x + ab_blk[j, 1]
+            v = ab_blk[j, 0] * x
+            v += ab_blk[j, 1]
             least = v.argmin(axis=0)  # the first of equal values, as a strict < over the maps in order
-            aj, bj = ab_blk[j, :, least, cols].T
-            x = y_blk[j] = np.minimum(c_blk[j], v[least, cols])
+            least *= nb
+            least += cols
+            aj, bj = flat[j, 0].take(least), flat[j, 1].take(least)
+            x = y_blk[j] = np.minimum(c_blk[j], v.min(axis=0))
         big_c = np.minimum(c_blk[j], aj * big_c + bj)
         big_b = aj * big_b + bj
         big_a = aj * big_a
