@@ -136,7 +136,10 @@ class TimeLaw:
         x2, x3 = x**2, x**3
         h00, h10, h01, h11 = 2 * x3 - 3 * x2 + 1, x3 - 2 * x2 + x, -2 * x3 + 3 * x2, x3 - x2
         u = np.clip(h00 * u0 + h10 * m0 + h01 * u1 + h11 * m1, u0, u1)
-        index = curve.interval_at(0.5 * (u0 + u1))
+        if len(s) > len(self.u):  # more samples than grid intervals: each interval's curve interval looked up once
+            index = curve.interval_at(0.5 * (self.u[:-1] + self.u[1:]))[k]
+        else:
+            index = curve.interval_at(0.5 * (u0 + u1))
         # lines and arcs have a constant ds/du, where the Hermite cubic is the exact (linear) map already
         curved = np.flatnonzero(~curve.constant_speed()[index])
         if len(curved):
