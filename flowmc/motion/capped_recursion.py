@@ -41,19 +41,19 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
     if n <= 2 * _BLOCK:
         return _sequential(cap, a, b)
     c_blk = _blocks(cap[:n], np.inf)
-    ab_blk = _stacked(a, b)
+    a_blk, b_blk = _blocks(a, 1.0), _blocks(b, 0.0)
     at = c_blk if guess is None else _blocks(guess[:n], np.inf)
     x_in = np.r_[at[0, 1:], end]  # the value after each block's last step: the next block's first
-    maps = _sweep(c_blk, ab_blk, x_in, at)[1]
+    maps = _sweep(c_blk, a_blk, b_blk, x_in, at)[1]
     y_blk = ran = None
     for _ in range(_ROUNDS):
         first = _chain(maps[0], maps[1], maps[2], end)
         x_in = np.minimum(x_in, np.r_[first[1:], end])  # both are upper bounds of the solution
         if y_blk is None or ran is None:
-            y_blk, maps = _sweep(c_blk, ab_blk, x_in)
+            y_blk, maps = _sweep(c_blk, a_blk, b_blk, x_in)
         else:  # a block run again from the same input gives the same values and map: only the others are
             again = np.flatnonzero(x_in != ran)
-            y_blk[:, again], part = _sweep(c_blk[:, again], ab_blk[..., again], x_in[again])
+            y_blk[:, again], part = _sweep(c_blk[:, again], a_blk[:, :, again], b_blk[:, :, again], x_in[again])
             for whole, new_part in zip(maps, part):
                 whole[again] = new_part
         ran = x_in
@@ -66,65 +66,39 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
     return np.r_[y_blk.T.reshape(-1)[:n], end]
 
 
-def _sweep(c_blk, ab_blk, x_in, at=None):
+def _sweep(c_blk, a_blk, b_blk, x_in, at=None):
     """Every block run from its input ``x_in`` (the value after its last step) with, at each step, the least
     of the axes' maps (step 2), and composed into one map min(C, A y + B) of its input by the maps chosen
-    (step 1). ``ab_blk`` (step, 2, map, block): each step's slopes and offsets, all maps stacked so a step is
-    a few numpy calls whatever the number of axes. With ``at`` (values in block layout), the maps are chosen
-    at those values, all steps at once, and nothing is run. Returns the values (None with ``at``) and the
+    (step 1). With ``at`` (values in block layout), the maps are chosen at those values and nothing is run.
+    ``a_blk`` and ``b_blk`` are (map, step, block) arrays. Returns the values (None with ``at``) and the
     composed maps (C, A, B)."""
     nb = c_blk.shape[1]
     big_a, big_b, big_c = np.ones(nb), np.zeros(nb), np.full(nb, np.inf)
-    if at is not None:
-        chosen = _chosen(ab_blk, np.vstack([at[1:], x_in]))
-        y_blk = None
-    else:
-        y_blk = np.empty_like(c_blk)
-        x = x_in
-        flat = ab_blk.reshape(_BLOCK, 2, -1)  # map i of block k at i * nb + k
-        cols = np.arange(nb)
+    y_blk = None if at is not None else np.empty_like(c_blk)
+    cols = np.arange(nb)
+    x = x_in
     for j in range(_BLOCK - 1, -1, -1):
-        if y_blk is None:
-            aj, bj = chosen[j]
+        if at is not None and j < _BLOCK - 1:
+            x = at[j + 1]
+        aj, bj = a_blk[:, j], b_blk[:, j]
+        if len(aj) > 1:  # the least map at x; on a tie the first, as the axes come
+            k = (aj * x + bj).argmin(axis=0)
+            aj, bj = aj[k, cols], bj[k, cols]
         else:
-            v = ab_blk[j, 0] * x
-            v += ab_blk[j, 1]
-            least = v.argmin(axis=0)  # the first of equal values, as a strict < over the maps in order
-            least *= nb
-            least += cols
-            aj, bj = flat[j, 0].take(least), flat[j, 1].take(least)
-            x = y_blk[j] = np.minimum(c_blk[j], v.min(axis=0))
+            aj, bj = aj[0], bj[0]
+        if y_blk is not None:
+            x = y_blk[j] = np.minimum(c_blk[j], aj * x + bj)
         big_c = np.minimum(c_blk[j], aj * big_c + bj)
         big_b = aj * big_b + bj
         big_a = aj * big_a
     return y_blk, (big_c, big_a, big_b)
 
 
-def _chosen(ab_blk: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Each step's least map at the value after it ``x`` (step, block): (step, 2, block) slopes and offsets."""
-    if ab_blk.shape[2] == 1:
-        return ab_blk[:, :, 0]
-    least = (ab_blk[:, 0] * x[:, None] + ab_blk[:, 1]).argmin(axis=1)
-    return np.take_along_axis(ab_blk, least[:, None, None, :], axis=2)[:, :, 0]
-
-
-def _stacked(a: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
-    """The maps' slopes and offsets in block layout, (step, 2, map, block); padding steps are y -> y."""
-    n = len(a[0])
-    whole, rest = divmod(n, _BLOCK)
-    out = np.empty((_BLOCK, 2, len(a), whole + (rest > 0)))
-    for k, (rows, fill) in enumerate(((a, 1.0), (b, 0.0))):
-        for i, v in enumerate(rows):  # written in place, map by map: no stacked copy first
-            out[:, k, i, :whole] = v[:whole * _BLOCK].reshape(whole, _BLOCK).T
-            if rest:
-                out[:rest, k, i, whole] = v[whole * _BLOCK:]
-        if rest:
-            out[rest:, k, :, whole] = fill
-    return out
-
-
-def _blocks(v: np.ndarray, fill: float) -> np.ndarray:
-    """v padded to whole blocks, as (step, block): each row one step of every block."""
+def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
+    """v padded to whole blocks, as (step, block): each row one step of every block; a list of such vectors
+    (the maps of every axis) as (map, step, block)."""
+    if isinstance(v, list):
+        return np.stack([_blocks(vi, fill) for vi in v])
     n = len(v)
     whole, rest = divmod(n, _BLOCK)
     out = np.empty((_BLOCK, whole + (rest > 0)))
@@ -145,10 +119,10 @@ def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarra
             x = min(ck, ak * x + bk)
             y[n - 1 - k] = x
         return y
-    c_blk, ab_blk = _blocks(c, np.inf), _stacked([a], [b])
-    big_c, big_a, big_b = _sweep(c_blk, ab_blk, np.empty(c_blk.shape[1]), c_blk)[1]  # one map: nothing to choose
+    c_blk, a_blk, b_blk = _blocks(c, np.inf), _blocks([a], 1.0), _blocks([b], 0.0)
+    big_c, big_a, big_b = _sweep(c_blk, a_blk, b_blk, None, c_blk)[1]  # one map: nothing to choose
     first = _chain(big_c, big_a, big_b, end)  # each block's first value
-    y_blk = _sweep(c_blk, ab_blk, np.r_[first[1:], end])[0]
+    y_blk = _sweep(c_blk, a_blk, b_blk, np.r_[first[1:], end])[0]
     return y_blk.T.reshape(-1)[:n]
 
 
