@@ -26,6 +26,7 @@ __all__ = ["descend"]
 _BLOCK = 48  # steps per block: numpy then works on rows of n / 48 values (about 4,000 on 3D_Chips' grid)
 _SETTLED = 1e-13  # relative: block inputs that fall less than this are settled (rounding of the composed maps)
 _ROUNDS = 64  # a bound only: every round lowers an input, and rounding stops it far sooner
+_SHORT = 1024  # a single map's chain this short runs step by step in Python: faster than two sweeps of blocks
 
 
 def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np.ndarray | None = None) -> np.ndarray:
@@ -111,7 +112,7 @@ def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
 def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarray:
     """y_k = min(c_k, a_k y_{k+1} + b_k) for k = n-1 .. 0 from y_n = end; returns y_0 .. y_{n-1} (step 1)."""
     n = len(a)
-    if n <= 2 * _BLOCK:
+    if n <= _SHORT:
         y = np.empty(n)
         x = end
         for k, (ck, ak, bk) in enumerate(zip(c.tolist()[::-1], a.tolist()[::-1], b.tolist()[::-1])):

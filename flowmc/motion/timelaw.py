@@ -137,7 +137,10 @@ class TimeLaw:
         x2, x3 = x**2, x**3
         h00, h10, h01, h11 = 2 * x3 - 3 * x2 + 1, x3 - 2 * x2 + x, -2 * x3 + 3 * x2, x3 - x2
         u = np.clip(h00 * u0 + h10 * m0 + h01 * u1 + h11 * m1, u0, u1)
-        index = curve.interval_at(0.5 * (u0 + u1))
+        if len(s) > len(self.u):  # more samples than grid intervals: each interval's curve interval looked up once
+            index = curve.interval_at(0.5 * (self.u[:-1] + self.u[1:]))[k]
+        else:
+            index = curve.interval_at(0.5 * (u0 + u1))
         # lines and arcs have a constant ds/du, where the Hermite cubic is the exact (linear) map already
         curved = np.flatnonzero(~curve.constant_speed()[index])
         if len(curved):
@@ -338,13 +341,13 @@ def _caps(g: _Geometry, feed: np.ndarray, lim: PathLimits, jerk: bool) -> tuple[
                                  g.kt[i:i + CHUNK]), feed[i:i + CHUNK], lim, jerk) for i in range(0, len(feed), CHUNK)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     with np.errstate(divide="ignore"):
-        y_vel = np.min(np.where(g.t > 0, (lim.vmax / np.where(g.t > 0, g.t, 1.0)) ** 2, np.inf), axis=1)
+        y_vel = _least_of_columns(np.where(g.t > 0, (lim.vmax / np.where(g.t > 0, g.t, 1.0)) ** 2, np.inf))
         y_vel = np.minimum(y_vel, feed**2)
-        y_acc = np.min(np.where(g.k > 0, lim.amax / np.where(g.k > 0, g.k, 1.0), np.inf), axis=1)
+        y_acc = _least_of_columns(np.where(g.k > 0, lim.amax / np.where(g.k > 0, g.k, 1.0), np.inf))
         if jerk:
             j, p3 = _JERK_SHARE * lim.jmax, g.p3
             assert p3 is not None, "jerk-limited geometry has P3"
-            y_jerk = np.min(np.where(p3 > 0, (j / np.where(p3 > 0, p3, 1.0)) ** (2.0 / 3.0), np.inf), axis=1)
+            y_jerk = _least_of_columns(np.where(p3 > 0, (j / np.where(p3 > 0, p3, 1.0)) ** (2.0 / 3.0), np.inf))
             y_acc = np.minimum(y_acc, y_jerk)
     return y_vel, y_acc
 
@@ -355,18 +358,28 @@ def _tangent_cap(g: _Geometry, lim: PathLimits) -> np.ndarray:
     alpha_i = amax_i / |T_i|, c_i = sign(T_i) K_i / |T_i|, and these meet while (c_j - c_i) y <= alpha_i + alpha_j
     for every pair; an axis that does not move caps y at amax_i / |K_i|. Above the normal terms' own cap
     amax_i / |K_i| the tool must speed up or slow down there (a parabola's corner blend entered at the speed
-    it was sized for: both axes at their limits all through it, the speed below that cap nowhere)."""
+    it was sized for: both axes at their limits all through it, the speed below that cap nowhere). Worked out
+    CHUNK points at a time past CHUNKED, as ``_caps``."""
+    if len(g.t) > CHUNKED:
+        return np.concatenate([_tangent_cap(_Geometry(g.t[i:i + CHUNK], g.k[i:i + CHUNK], None, g.kt[i:i + CHUNK]), lim)
+                               for i in range(0, len(g.t), CHUNK)])
     moving = g.t > 1e-9
     with np.errstate(divide="ignore", invalid="ignore"):
-        alpha = np.where(moving, lim.amax / np.where(moving, g.t, 1.0), np.inf)
-        c = np.where(moving, g.kt / np.where(moving, g.t, 1.0), 0.0)
-        y = np.min(np.where(~moving & (g.k > 0), lim.amax / np.where(g.k > 0, g.k, 1.0), np.inf), axis=1)
-        for i in range(3):
-            for j in range(3):
-                d = c[:, j] - c[:, i]
-                ok = moving[:, i] & moving[:, j] & (d > 0)
-                y = np.minimum(y, np.where(ok, (alpha[:, i] + alpha[:, j]) / np.where(ok, d, 1.0), np.inf))
+        alpha = np.where(moving, lim.amax / np.where(moving, g.t, 1.0), np.inf).T  # by axis: contiguous rows
+        c = np.where(moving, g.kt / np.where(moving, g.t, 1.0), 0.0).T
+        y = _least_of_columns(np.where(~moving & (g.k > 0), lim.amax / np.where(g.k > 0, g.k, 1.0), np.inf))
+        moving = moving.T
+        for i, j in ((0, 1), (0, 2), (1, 2)):  # c_j - c_i is exactly -(c_i - c_j): one of each pair binds
+            d = np.abs(c[j] - c[i])
+            ok = moving[i] & moving[j] & (d > 0)
+            y = np.minimum(y, np.where(ok, (alpha[i] + alpha[j]) / np.where(ok, d, 1.0), np.inf))
     return y
+
+
+def _least_of_columns(v: np.ndarray) -> np.ndarray:
+    """np.min(v, axis=1) of an (n, 3) array, as two elementwise minima (a reduction along rows of three is
+    several times slower)."""
+    return np.minimum(np.minimum(v[:, 0], v[:, 1]), v[:, 2])
 
 
 def _within(u: np.ndarray, ranges: np.ndarray | None) -> np.ndarray:
