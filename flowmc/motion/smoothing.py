@@ -88,7 +88,8 @@ _END_BENT = 0.5 * math.pi  # rad: where that path turns more than this (a tight 
 _END_TURN = 0.6  # misjudges the end's direction: the span is shortened until it turns at most this
 _TOL_SHARE = 0.99  # of the tolerance left for smoothing, after the sampled chords sagitta
 _KNOT_TOL = 2.0  # least knot spacing, in tolerances
-_KNOT_TOL_FINE = 1.0  # ... for fits with the bending penalty (flowsnake: 5.488 s at 2, 5.406 at 1, 5.424 at 0.75 or 1.25)
+_KNOT_TOL_FINE = 0.8  # ... for fits with the bending penalty (flowsnake: 5.488 s at 2, 5.406 at 1; with the reach below
+# 5.251 at 1, 5.239 at 0.8, 5.289 at 0.6, and the retimed stretch breaks no limit, so it is retimed once)
 _KNOT_SEGMENT = 0.4  # knot spacing in a run's typical programmed segment lengths
 _KNOT_MAX = 10.0  # most knot spacing, in tolerances
 _REFINE_KNOTS = 2  # times a run that misses the tolerance is fitted again with knots twice as dense
