@@ -536,10 +536,10 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     node_cap[stops] = 0.0
     high = _scan(node_cap, ds, budget_of(np.zeros_like(cap)))
     low = budget = None
-    for _ in range(rounds):
+    for r in range(rounds):
         budget = budget_of(np.minimum(cap, np.maximum(high[:-1], high[1:])))
         low = _scan(node_cap, ds, budget)
-        if _converged(high, low):
+        if r == rounds - 1 or _converged(high, low):  # the last round's profile from above would go unused
             break
         high = _scan(node_cap, ds, budget_of(np.minimum(cap, np.maximum(low[:-1], low[1:]))))
     assert low is not None and budget is not None, "at least one round"
@@ -707,7 +707,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     m = len(ds)
     swing = np.zeros(m, dtype=bool)
     fastest, own = y, _reach(y, cap, ds, window, rest)
-    for _ in range(_SWING_ROUNDS):
+    for r in range(_SWING_ROUNDS):
         y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest, own)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
@@ -719,6 +719,8 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
             node_cap = np.minimum(node_cap, lowered)
             y = _scan(np.minimum(node_cap, y), ds, budget_e)
         yield y
+        if r == _SWING_ROUNDS - 1:  # no round left to mend what the check below would find
+            return
         depart = _node_times(y, ds) + np.cumsum(rest)  # the rests at stops (sample_time_law) separate too
         arrive = depart - rest
         a = np.diff(y) / (2.0 * ds)
@@ -757,9 +759,9 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
 
     high = fastest
     known: tuple | None = own
-    for _ in range(_REACH_ROUNDS):
+    for r in range(_REACH_ROUNDS):
         y, budget, reach = planned(high, high, known)
-        if _converged(high, y):
+        if r == _REACH_ROUNDS - 1 or _converged(high, y):  # the last round's faster profile would go unused
             break
         high, known = np.maximum(planned(y, None)[0], y), None
     return y, budget, reach
