@@ -495,25 +495,32 @@ class _Budgets:
         return parts
 
     def _budgets(self, level: np.ndarray, swing: np.ndarray | None):
+        """The budgets' arithmetic, into preallocated arrays (each term a pass over arrays that stay in cache)."""
         y = level
-        up = np.full(len(y), np.inf)
-        down = np.full(len(y), np.inf)
+        n = len(y)
+        up, down, term = np.full(n, np.inf), np.full(n, np.inf), np.empty(n)
         with np.errstate(invalid="ignore", divide="ignore"):
             if self.window > 0:
                 root = np.sqrt(y)
                 y_root = y * root
                 widen = None if swing is None else 1.0 + swing
+                coeff, jerk = np.empty(n), np.empty(n)
             for row in self.axes:
-                np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
-                np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                np.minimum(up, np.subtract(row["alpha"], np.multiply(row["beta_up"], y, out=term), out=term), out=up)
+                np.minimum(down, np.subtract(row["alpha"], np.multiply(row["beta_down"], y, out=term), out=term),
+                           out=down)
                 if self.window > 0:
                     t_win = row["t_win"] if widen is None else row["t_win"] * widen
-                    coeff = t_win + row["k3"] * root
-                    jerk = np.where(coeff > 0, (row["jmax"] - row["p3"] * y_root) / coeff, np.inf)
+                    np.add(t_win, np.multiply(row["k3"], root, out=coeff), out=coeff)
+                    np.subtract(row["jmax"], np.multiply(row["p3"], y_root, out=term), out=term)
+                    jerk.fill(np.inf)
+                    np.divide(term, coeff, out=jerk, where=coeff > 0)
                     np.minimum(up, jerk, out=up)
                     np.minimum(down, jerk, out=down)
-        clean = [np.maximum(np.where(np.isfinite(b), b, 1e12), 1e-9) for b in (up, down)]
-        return clean[0], clean[1]
+            for b in (up, down):
+                b[~np.isfinite(b)] = 1e12
+                np.maximum(b, 1e-9, out=b)
+        return up, down
 
 
 def _converged(high: np.ndarray, low: np.ndarray) -> bool:
@@ -748,11 +755,23 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
                   ds: np.ndarray, window: float, rest: np.ndarray, own: tuple):
     """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval). ``own``: ``_reach``
     of ``fastest``, the same in every round of _filterable."""
+    at_rest = []  # the budgets at speed 0, where every profile below starts: worked out once
+
+    def budgets(level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if level.any():
+            return budget_of(level, swing)
+        if not at_rest:
+            at_rest.append(budget_of(level, swing))
+        return at_rest[0]
+
     def planned(faster: np.ndarray, limit: np.ndarray | None, known: tuple | None = None):
         lo, hi, windows, capped = known if known is not None else _reach(faster, cap, ds, window, rest)
 
         def reach_budget(level):
-            return tuple(windows.min(b) for b in budget_of(level, swing))
+            up, down = budgets(level)
+            least = windows.min(up)
+            # on straight stretches the two budgets are the same numbers: their minima too
+            return least, least if np.array_equal(up, down) else windows.min(down)
 
         y, budget = _profile(capped, stops, ds, reach_budget, node_limit=limit, rounds=_REACH_PROFILE_ROUNDS)
         return y, budget, (lo, hi)
