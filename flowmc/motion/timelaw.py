@@ -810,13 +810,23 @@ def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, r
     depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
     arrive = ph.start[0::2]
     times = np.concatenate([depart[:-1], arrive[1:] + window])
-    filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
+    filtered = (ph.integral(times, _leaving_first(ph, times, m)) - ph.integral(times - window)).astype(float) / window
     lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
     hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
     k = np.arange(m)
     lo, hi = np.minimum(lo, k), np.maximum(hi, k)
     windows = Windows(lo, hi, m)
     return lo, hi, windows, windows.min(cap)
+
+
+def _leaving_first(ph: _Phases, times: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """``ph.at(times)``, the first m of which are the times the motion leaves nodes 0..m-1: the starts of phases
+    1, 3, ..., found without a search where no phase after one of them lasts no time at all."""
+    leaving = np.arange(1, 2 * m, 2)
+    if not (np.array_equal(times[:m], ph.start[leaving]) and np.all(ph.start[leaving + 1] > ph.start[leaving])):
+        return ph.at(times)
+    k, tau = ph.at(times[m:])
+    return np.concatenate([leaving, k]), np.concatenate([np.zeros(m), tau])
 
 
 def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
