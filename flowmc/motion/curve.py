@@ -20,7 +20,7 @@ from functools import cached_property
 
 import numpy as np
 
-from flowmc.motion.ranges import CHUNK, CHUNKED
+from flowmc.motion.ranges import CHUNK, CHUNKED, search_right
 
 __all__ = ["POLY", "ARC", "PlannedCurve", "CurveBuilder"]
 
@@ -63,7 +63,7 @@ class PlannedCurve:
         return float(self.u1[-1]) if len(self) else 0.0
 
     def interval_at(self, u: np.ndarray) -> np.ndarray:
-        return np.clip(np.searchsorted(self.u0, u, side="right") - 1, 0, len(self.u0) - 1)
+        return np.clip(search_right(self.u0, u) - 1, 0, len(self.u0) - 1)
 
     def programmed_u(self, u) -> np.ndarray:
         """Programmed arc length at curve parameters u."""

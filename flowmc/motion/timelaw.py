@@ -65,7 +65,7 @@ from flowmc.errors import PlanningError
 from flowmc.motion.capped_recursion import descend
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
+from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, search_right, window_max, window_min
 from flowmc.motion.sample_clock import setpoint_times
 
 __all__ = ["TimeLaw", "plan_time_law", "trapezoid_laws", "plan_jerk_limited", "sample_time_law", "sampled_accel", "sampled_jerk",
@@ -129,7 +129,7 @@ class TimeLaw:
         s = np.clip(np.asarray(s, dtype=float).reshape(-1), self.s[0], self.s[-1])
         if not len(s):
             return s.copy()
-        k = np.clip(_searched(self.s, s) - 1, 0, len(self.s) - 2)
+        k = np.clip(search_right(self.s, s) - 1, 0, len(self.s) - 2)
         h = self.s[k + 1] - self.s[k]
         x = np.where(h > 0, (s - self.s[k]) / np.where(h > 0, h, 1.0), 0.0)
         u0, u1 = self.u[k], self.u[k + 1]
@@ -163,15 +163,6 @@ class TimeLaw:
             err = self.s[k] + 0.5 * (u - u0) * (_GL3_W @ speed[:-1]) - s
             u = np.clip(u - err / np.maximum(speed[-1], 1e-12), u0, u1)
         return u
-
-
-def _searched(keys: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """np.searchsorted(keys, t, side="right"). Sampled times and arc lengths ascend and outnumber the keys
-    several times over: then each key is looked up among them instead, and the counts of keys at or below every
-    t summed up (the same integers, a third of the time for 338k samples over 63k phases)."""
-    if len(t) > 2 * len(keys) and np.all(t[1:] >= t[:-1]):
-        return np.cumsum(np.bincount(np.searchsorted(t, keys, side="left"), minlength=len(t) + 1)[:len(t)])
-    return np.searchsorted(keys, t, side="right")
 
 
 def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: float) -> np.ndarray:
@@ -913,7 +904,7 @@ class _Phases:
     owner: np.ndarray  # dwell segment a wait belongs to, -1 otherwise
 
     def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        k = np.clip(_searched(self.start, t) - 1, 0, len(self.start) - 1)
+        k = np.clip(search_right(self.start, t) - 1, 0, len(self.start) - 1)
         return k, np.clip(t - self.start[k], 0.0, self.dur[k])
 
     def s(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
