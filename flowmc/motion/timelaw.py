@@ -244,12 +244,14 @@ def _scan(cap_node: np.ndarray, ds: np.ndarray, budget: tuple[np.ndarray, np.nda
     """Fastest y at the nodes with y <= cap_node, y_{k+1} - y_k <= 2 up_k ds_k and y_k - y_{k+1} <= 2 down_k ds_k
     (``budget`` = (up, down))."""
     up, down = budget
-    c = np.zeros(len(ds) + 1)  # the sums from the first node, filled in place (no copies of 1e5-long arrays)
-    np.cumsum(2.0 * down * ds, out=c[1:])
+    c = np.zeros(len(ds) + 1)  # the sums from the first node, every step worked out in place (no temporaries)
+    step = c[1:]
+    np.cumsum(np.multiply(np.multiply(2.0, down, out=step), ds, out=step), out=step)
     back = np.add(cap_node, c)[::-1]
     np.minimum.accumulate(back, out=back)
-    back = back[::-1] - c
-    np.cumsum(2.0 * up * ds, out=c[1:])
+    back = back[::-1]
+    back -= c
+    np.cumsum(np.multiply(np.multiply(2.0, up, out=step), ds, out=step), out=step)
     back -= c
     np.minimum.accumulate(back, out=back)
     return np.add(back, c, out=back)
