@@ -757,7 +757,7 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
                   ds: np.ndarray, window: float, rest: np.ndarray, own: tuple):
     """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval). ``own``: ``_reach``
     of ``fastest``, the same in every round of _filterable."""
-    at_rest = []  # the budgets at speed 0, where every profile below starts: worked out once
+    at_rest: list[tuple[np.ndarray, np.ndarray]] = []  # the budgets at speed 0, where every profile below starts: worked out once
 
     def budgets(level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if level.any():
