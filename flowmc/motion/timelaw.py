@@ -758,12 +758,13 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
     """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval). ``own``: ``_reach``
     of ``fastest``, the same in every round of _filterable."""
     at_rest: list[tuple[np.ndarray, np.ndarray]] = []  # the budgets at speed 0, where every profile below starts: worked out once
+    swung = swing if swing.any() else None  # no swing: the same budgets without widening by 1
 
     def budgets(level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if level.any():
-            return budget_of(level, swing)
+            return budget_of(level, swung)
         if not at_rest:
-            at_rest.append(budget_of(level, swing))
+            at_rest.append(budget_of(level, swung))
         return at_rest[0]
 
     def planned(faster: np.ndarray, limit: np.ndarray | None, known: tuple | None = None):
