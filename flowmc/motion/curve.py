@@ -20,7 +20,7 @@ from functools import cached_property
 
 import numpy as np
 
-from flowmc.motion.ranges import CHUNK, CHUNKED
+from flowmc.motion.ranges import CHUNK, CHUNKED, search_right
 
 __all__ = ["POLY", "ARC", "PlannedCurve", "CurveBuilder"]
 
@@ -63,7 +63,7 @@ class PlannedCurve:
         return float(self.u1[-1]) if len(self) else 0.0
 
     def interval_at(self, u: np.ndarray) -> np.ndarray:
-        return np.clip(np.searchsorted(self.u0, u, side="right") - 1, 0, len(self.u0) - 1)
+        return np.clip(search_right(self.u0, u) - 1, 0, len(self.u0) - 1)
 
     def programmed_u(self, u) -> np.ndarray:
         """Programmed arc length at curve parameters u."""
@@ -114,10 +114,11 @@ class PlannedCurve:
         # (3, n) rows, as in _poly
         r, d, rise = self.radius[kk], self.dphi[kk], self.rise[kk]
         cos, sin = np.cos(phi), np.sin(phi)
-        e1, e2, w = self.e1[kk].T, self.e2[kk].T, self.w[kk].T
+        rows = self.arc_rows
+        e1, e2, w = (np.take(rows[i], kk, axis=1) for i in range(3))
         radial = cos * e1 + sin * e2
         if lowest <= 0:
-            out[0 - lowest][arc] = (self.centre[kk].T + r * radial + (rise * x) * w).T
+            out[0 - lowest][arc] = (np.take(rows[3], kk, axis=1) + r * radial + (rise * x) * w).T
         if order >= 1 and lowest <= 1:
             out[1 - lowest][arc] = ((r * d) * (cos * e2 - sin * e1) + rise * w).T
         if order >= 2 and lowest <= 2:
@@ -130,6 +131,12 @@ class PlannedCurve:
     def by_power(self) -> np.ndarray:
         """``coef`` as (power, axis, interval), contiguous: a gather of intervals reads whole rows."""
         return np.ascontiguousarray(self.coef.transpose(1, 2, 0))
+
+    @cached_property
+    def arc_rows(self) -> np.ndarray:
+        """e1, e2, w and centre as (vector, axis, interval), contiguous: an arc's gathers read whole rows, and
+        its (3, n) arithmetic runs along the points (as ``by_power`` for polynomials)."""
+        return np.ascontiguousarray(np.stack([self.e1, self.e2, self.w, self.centre]).transpose(0, 2, 1))
 
     def _poly(self, u: np.ndarray, k: np.ndarray, order: int, lowest: int = 0) -> list[np.ndarray]:
         # worked as (3, n) rows, so numpy's inner loops run along the points rather than over 3 columns; the

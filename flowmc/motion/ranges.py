@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CHUNK", "CHUNKED", "Windows", "window_min", "window_max", "moving_means", "range_medians"]
+__all__ = ["CHUNK", "CHUNKED", "Windows", "window_min", "window_max", "moving_means", "range_medians", "search_right"]
 
 CHUNK = 16384  # elements a long pass works out together (the curve's points, the time law's intervals) ...
 CHUNKED = 4 * CHUNK  # ... where there are more than this: every temporary then stays in cache
@@ -52,6 +52,17 @@ def window_min(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
 def window_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """max(values[lo_k : hi_k + 1]) for every k."""
     return -window_min(-np.asarray(values, dtype=float), lo, hi)
+
+
+def search_right(keys: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """np.searchsorted(keys, t, side="right"). Sampled times, arc lengths and curve parameters ascend and
+    outnumber the keys several times over: then each key is looked up among them instead, and the counts of
+    keys at or below every t summed up (the same integers; a third of the time for 338k samples over 63k
+    phases, a tenth over 1,800 curve intervals)."""
+    t = np.asarray(t)
+    if t.ndim == 1 and len(t) > 2 * len(keys) and np.all(t[1:] >= t[:-1]):
+        return np.cumsum(np.bincount(np.searchsorted(t, keys, side="left"), minlength=len(t) + 1)[:len(t)])
+    return np.searchsorted(keys, t, side="right")
 
 
 def range_medians(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

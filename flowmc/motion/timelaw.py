@@ -65,7 +65,7 @@ from flowmc.errors import PlanningError
 from flowmc.motion.capped_recursion import descend
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, window_max, window_min
+from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, search_right, window_max, window_min
 from flowmc.motion.sample_clock import setpoint_times
 
 __all__ = ["TimeLaw", "plan_time_law", "trapezoid_laws", "plan_jerk_limited", "sample_time_law", "sampled_accel", "sampled_jerk",
@@ -129,7 +129,7 @@ class TimeLaw:
         s = np.clip(np.asarray(s, dtype=float).reshape(-1), self.s[0], self.s[-1])
         if not len(s):
             return s.copy()
-        k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
+        k = np.clip(search_right(self.s, s) - 1, 0, len(self.s) - 2)
         h = self.s[k + 1] - self.s[k]
         x = np.where(h > 0, (s - self.s[k]) / np.where(h > 0, h, 1.0), 0.0)
         u0, u1 = self.u[k], self.u[k + 1]
@@ -244,12 +244,14 @@ def _scan(cap_node: np.ndarray, ds: np.ndarray, budget: tuple[np.ndarray, np.nda
     """Fastest y at the nodes with y <= cap_node, y_{k+1} - y_k <= 2 up_k ds_k and y_k - y_{k+1} <= 2 down_k ds_k
     (``budget`` = (up, down))."""
     up, down = budget
-    c = np.zeros(len(ds) + 1)  # the sums from the first node, filled in place (no copies of 1e5-long arrays)
-    np.cumsum(2.0 * down * ds, out=c[1:])
+    c = np.zeros(len(ds) + 1)  # the sums from the first node, every step worked out in place (no temporaries)
+    step = c[1:]
+    np.cumsum(np.multiply(np.multiply(2.0, down, out=step), ds, out=step), out=step)
     back = np.add(cap_node, c)[::-1]
     np.minimum.accumulate(back, out=back)
-    back = back[::-1] - c
-    np.cumsum(2.0 * up * ds, out=c[1:])
+    back = back[::-1]
+    back -= c
+    np.cumsum(np.multiply(np.multiply(2.0, up, out=step), ds, out=step), out=step)
     back -= c
     np.minimum.accumulate(back, out=back)
     return np.add(back, c, out=back)
@@ -495,25 +497,32 @@ class _Budgets:
         return parts
 
     def _budgets(self, level: np.ndarray, swing: np.ndarray | None):
+        """The budgets' arithmetic, into preallocated arrays (each term a pass over arrays that stay in cache)."""
         y = level
-        up = np.full(len(y), np.inf)
-        down = np.full(len(y), np.inf)
+        n = len(y)
+        up, down, term = np.full(n, np.inf), np.full(n, np.inf), np.empty(n)
         with np.errstate(invalid="ignore", divide="ignore"):
             if self.window > 0:
                 root = np.sqrt(y)
                 y_root = y * root
                 widen = None if swing is None else 1.0 + swing
+                coeff, jerk = np.empty(n), np.empty(n)
             for row in self.axes:
-                np.minimum(up, row["alpha"] - row["beta_up"] * y, out=up)
-                np.minimum(down, row["alpha"] - row["beta_down"] * y, out=down)
+                np.minimum(up, np.subtract(row["alpha"], np.multiply(row["beta_up"], y, out=term), out=term), out=up)
+                np.minimum(down, np.subtract(row["alpha"], np.multiply(row["beta_down"], y, out=term), out=term),
+                           out=down)
                 if self.window > 0:
                     t_win = row["t_win"] if widen is None else row["t_win"] * widen
-                    coeff = t_win + row["k3"] * root
-                    jerk = np.where(coeff > 0, (row["jmax"] - row["p3"] * y_root) / coeff, np.inf)
+                    np.add(t_win, np.multiply(row["k3"], root, out=coeff), out=coeff)
+                    np.subtract(row["jmax"], np.multiply(row["p3"], y_root, out=term), out=term)
+                    jerk.fill(np.inf)
+                    np.divide(term, coeff, out=jerk, where=coeff > 0)
                     np.minimum(up, jerk, out=up)
                     np.minimum(down, jerk, out=down)
-        clean = [np.maximum(np.where(np.isfinite(b), b, 1e12), 1e-9) for b in (up, down)]
-        return clean[0], clean[1]
+            for b in (up, down):
+                b[~np.isfinite(b)] = 1e12
+                np.maximum(b, 1e-9, out=b)
+        return up, down
 
 
 def _converged(high: np.ndarray, low: np.ndarray) -> bool:
@@ -536,10 +545,10 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     node_cap[stops] = 0.0
     high = _scan(node_cap, ds, budget_of(np.zeros_like(cap)))
     low = budget = None
-    for _ in range(rounds):
+    for r in range(rounds):
         budget = budget_of(np.minimum(cap, np.maximum(high[:-1], high[1:])))
         low = _scan(node_cap, ds, budget)
-        if _converged(high, low):
+        if r == rounds - 1 or _converged(high, low):  # the last round's profile from above would go unused
             break
         high = _scan(node_cap, ds, budget_of(np.minimum(cap, np.maximum(low[:-1], low[1:]))))
     assert low is not None and budget is not None, "at least one round"
@@ -707,7 +716,7 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
     m = len(ds)
     swing = np.zeros(m, dtype=bool)
     fastest, own = y, _reach(y, cap, ds, window, rest)
-    for _ in range(_SWING_ROUNDS):
+    for r in range(_SWING_ROUNDS):
         y, budget_e, reach = _within_reach(fastest, cap, budget_of, swing, stops, ds, window, rest, own)
         # peaks (speeding up, then slowing down) cut flat for Tj: the usual swing, mended cheaply
         node_cap = np.full(m + 1, np.inf)
@@ -719,6 +728,8 @@ def _filterable(y: np.ndarray, cap: np.ndarray, budget_of, stops: np.ndarray, ds
             node_cap = np.minimum(node_cap, lowered)
             y = _scan(np.minimum(node_cap, y), ds, budget_e)
         yield y
+        if r == _SWING_ROUNDS - 1:  # no round left to mend what the check below would find
+            return
         depart = _node_times(y, ds) + np.cumsum(rest)  # the rests at stops (sample_time_law) separate too
         arrive = depart - rest
         a = np.diff(y) / (2.0 * ds)
@@ -746,20 +757,33 @@ def _within_reach(fastest: np.ndarray, cap: np.ndarray, budget_of, swing: np.nda
                   ds: np.ndarray, window: float, rest: np.ndarray, own: tuple):
     """1. of _filterable: the safe profile, its budgets, and its reach (lo, hi per interval). ``own``: ``_reach``
     of ``fastest``, the same in every round of _filterable."""
+    at_rest: list[tuple[np.ndarray, np.ndarray]] = []  # the budgets at speed 0, where every profile below starts: worked out once
+    swung = swing if swing.any() else None  # no swing: the same budgets without widening by 1
+
+    def budgets(level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if level.any():
+            return budget_of(level, swung)
+        if not at_rest:
+            at_rest.append(budget_of(level, swung))
+        return at_rest[0]
+
     def planned(faster: np.ndarray, limit: np.ndarray | None, known: tuple | None = None):
         lo, hi, windows, capped = known if known is not None else _reach(faster, cap, ds, window, rest)
 
         def reach_budget(level):
-            return tuple(windows.min(b) for b in budget_of(level, swing))
+            up, down = budgets(level)
+            least = windows.min(up)
+            # on straight stretches the two budgets are the same numbers: their minima too
+            return least, least if np.array_equal(up, down) else windows.min(down)
 
         y, budget = _profile(capped, stops, ds, reach_budget, node_limit=limit, rounds=_REACH_PROFILE_ROUNDS)
         return y, budget, (lo, hi)
 
     high = fastest
     known: tuple | None = own
-    for _ in range(_REACH_ROUNDS):
+    for r in range(_REACH_ROUNDS):
         y, budget, reach = planned(high, high, known)
-        if _converged(high, y):
+        if r == _REACH_ROUNDS - 1 or _converged(high, y):  # the last round's faster profile would go unused
             break
         high, known = np.maximum(planned(y, None)[0], y), None
     return y, budget, reach
@@ -780,13 +804,23 @@ def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, r
     depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
     arrive = ph.start[0::2]
     times = np.concatenate([depart[:-1], arrive[1:] + window])
-    filtered = (ph.integral(times) - ph.integral(times - window)).astype(float) / window
+    filtered = (ph.integral(times, _leaving_first(ph, times, m)) - ph.integral(times - window)).astype(float) / window
     lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
     hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
     k = np.arange(m)
     lo, hi = np.minimum(lo, k), np.maximum(hi, k)
     windows = Windows(lo, hi, m)
     return lo, hi, windows, windows.min(cap)
+
+
+def _leaving_first(ph: _Phases, times: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """``ph.at(times)``, the first m of which are the times the motion leaves nodes 0..m-1: the starts of phases
+    1, 3, ..., found without a search where no phase after one of them lasts no time at all."""
+    leaving = np.arange(1, 2 * m, 2)
+    if not (np.array_equal(times[:m], ph.start[leaving]) and np.all(ph.start[leaving + 1] > ph.start[leaving])):
+        return ph.at(times)
+    k, tau = ph.at(times[m:])
+    return np.concatenate([leaving, k]), np.concatenate([np.zeros(m), tau])
 
 
 def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
@@ -873,7 +907,7 @@ class _Phases:
     owner: np.ndarray  # dwell segment a wait belongs to, -1 otherwise
 
     def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        k = np.clip(np.searchsorted(self.start, t, side="right") - 1, 0, len(self.start) - 1)
+        k = np.clip(search_right(self.start, t) - 1, 0, len(self.start) - 1)
         return k, np.clip(t - self.start[k], 0.0, self.dur[k])
 
     def s(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:

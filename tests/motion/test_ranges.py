@@ -1,11 +1,11 @@
 """flowmc.motion.ranges: window minima and maxima equal a brute-force scan, reused windows included; the moving
-means equal scipy.ndimage.uniform_filter1d segment by segment."""
+means equal scipy.ndimage.uniform_filter1d segment by segment; search_right is np.searchsorted."""
 
 import numpy as np
 import pytest
 from scipy.ndimage import uniform_filter1d
 
-from flowmc.motion.ranges import Windows, moving_means, range_medians, window_max, window_min
+from flowmc.motion.ranges import Windows, moving_means, range_medians, search_right, window_max, window_min
 
 
 def test_windows_match_a_scan_of_every_window():
@@ -56,3 +56,11 @@ def test_range_medians_are_numpy_medians():
     np.testing.assert_array_equal(out, [np.median(values[a:b]) for a, b in zip(lo, hi)])
     with pytest.raises(ValueError, match="needs a value"):
         range_medians(values, [3], [3])
+
+
+def test_search_right_is_searchsorted_ties_and_both_ends_included():
+    rng = np.random.default_rng(7)
+    keys = np.sort(np.r_[rng.integers(0, 50, 40).astype(float), [3.0, 3.0, 3.0]])  # repeated keys
+    ascending = np.sort(np.r_[rng.uniform(-5, 55, 300), keys[:10], [-10.0, 60.0]])  # needles on keys and outside
+    for t in (ascending, rng.permutation(ascending), ascending[:20], np.repeat(keys[5], 200)):
+        assert np.array_equal(search_right(keys, t), np.searchsorted(keys, t, side="right"))
