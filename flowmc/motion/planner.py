@@ -140,8 +140,12 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
             if better is not law:
                 law, u, dwell_seg, pos = sampled(better)
         return law, u, dwell_seg, pos
-    law, laws = known if known is not None else (None, trapezoid_laws(*args))
-    law, u, dwell_seg, pos = sampled(law if law is not None else laws(None))
+    if known is None:
+        laws = trapezoid_laws(*args)
+        law = laws(None)
+    else:
+        law, laws = known
+    law, u, dwell_seg, pos = sampled(law)
     tight = np.zeros((0, 2))
     for reach in _TIGHT_REACH:
         # above the normal terms' own cap the law keeps the limits at three points of each interval only: where

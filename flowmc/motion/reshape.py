@@ -312,6 +312,7 @@ def _reshape_stretch(curve: PlannedCurve, raw: PlannedCurve, ka: int, kb: int, i
     bounds[n:n + 2, 1] = bounds[2 * n - 2:2 * n, 1] = 0.0
     if fitted:  # where the load is above its mean, the share may be negative: those points are not flattened
         bounds[n:2 * n, 0] = -_GAIN_MAX
+
     def offset(d):  # the stretch moved by d along the normal, with its own tangents kept at both ends
         return CubicSpline(u - ua, p + d[:, None] * normal, axis=0, bc_type=((1, d1[0]), (1, d1[-1])))
 

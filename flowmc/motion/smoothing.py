@@ -519,12 +519,13 @@ class _RunFitter:
         share no entry (their end control points are fixed), so any set of them is solved on its own."""
         total, fixed = len(cps), self.fixed[cps]
         w_at = np.zeros(total)  # each penalty row's weight at its first control point, zero between runs
-        w_at[np.searchsorted(cps, self.diff_start[rows])] = self.mu[rows] * self.scale[rows]
+        first = np.searchsorted(cps, self.diff_start[rows])
+        w_at[first] = self.mu[rows] * self.scale[rows]
         diag = [d[cps[:total - k]] for k, d in enumerate(self.data_diag)]
         stencils = [(self.stencil, w_at)]
         if self.bend:
             w_bend = np.zeros(total)
-            w_bend[np.searchsorted(cps, self.diff_start[rows])] = self.mu_bend[rows] * self.scale[rows]
+            w_bend[first] = self.mu_bend[rows] * self.scale[rows]
             stencils.append((_STENCILS[2], w_bend))
         for stencil, w in stencils:
             for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
@@ -1041,12 +1042,12 @@ def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity:
         lo_i = np.searchsorted(raw.u1, runs.ua[fits], side="right")
         hi_i = np.searchsorted(raw.u0, runs.ub[fits], side="left")
         typical = range_medians(widths, lo_i, np.maximum(hi_i, lo_i + 1))
-        h = np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL * tolerance, _KNOT_MAX * tolerance)
         # the penalty: second differences (kind 0), third for jerk-limited plans and for steadily turning runs (1),
         # both on jerk-limited runs of waves and zigzags finer than the tolerance (2)
         steady = _steady(el, runs.first[fits], runs.last[fits])
         kind = np.where(g2, np.where(steady | (typical > _FINE_DETAIL * tolerance), 1, 2), steady.astype(int))
-        h = np.where(kind == 2, np.clip(_KNOT_SEGMENT * typical, _KNOT_TOL_FINE * tolerance, _KNOT_MAX * tolerance), h)
+        h = np.clip(_KNOT_SEGMENT * typical, np.where(kind == 2, _KNOT_TOL_FINE, _KNOT_TOL) * tolerance,
+                    _KNOT_MAX * tolerance)
         pending = fits
         devs: list[float] = []
         for _attempt in range(_REFINE_KNOTS + 1):  # runs that miss the tolerance are fitted again with finer knots
