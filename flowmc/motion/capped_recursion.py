@@ -53,7 +53,7 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
             y_blk, maps = _sweep(c_blk, a_blk, b_blk, x_in)
         else:  # a block run again from the same input gives the same values and map: only the others are
             again = np.flatnonzero(x_in != ran)
-            y_blk[:, again], part = _sweep(c_blk[:, again], a_blk[:, :, again], b_blk[:, :, again], x_in[again])
+            y_blk[:, again], part = _sweep(c_blk[:, again], a_blk[:, again], b_blk[:, again], x_in[again])
             for whole, new_part in zip(maps, part):
                 whole[again] = new_part
         ran = x_in
@@ -70,24 +70,31 @@ def _sweep(c_blk, a_blk, b_blk, x_in, at=None):
     """Every block run from its input ``x_in`` (the value after its last step) with, at each step, the least
     of the axes' maps (step 2), and composed into one map min(C, A y + B) of its input by the maps chosen
     (step 1). With ``at`` (values in block layout), the maps are chosen at those values and nothing is run.
-    ``a_blk`` and ``b_blk`` are (map, step, block) arrays. Returns the values (None with ``at``) and the
-    composed maps (C, A, B)."""
-    nb = c_blk.shape[1]
+    ``a_blk`` and ``b_blk`` are (step, block, map) arrays: each step's maps of every block one contiguous
+    row, so a step chooses with one argmin along rows and two flat takes (numpy's own cost per call, not
+    the arithmetic, bounds a sweep of the short programs' 60 blocks). Returns the values (None with ``at``)
+    and the composed maps (C, A, B)."""
+    steps, nb, n_maps = a_blk.shape
+    a_flat, b_flat = a_blk.reshape(steps, nb * n_maps), b_blk.reshape(steps, nb * n_maps)
+    rows = np.arange(0, nb * n_maps, n_maps)  # each block's first map in a step's flat row
     big_a, big_b, big_c = np.ones(nb), np.zeros(nb), np.full(nb, np.inf)
     y_blk = None if at is not None else np.empty_like(c_blk)
-    cols = np.arange(nb)
     x = x_in
-    for j in range(_BLOCK - 1, -1, -1):
-        if at is not None and j < _BLOCK - 1:
+    for j in range(steps - 1, -1, -1):
+        if at is not None and j < steps - 1:
             x = at[j + 1]
-        aj, bj = a_blk[:, j], b_blk[:, j]
-        if len(aj) > 1:  # the least map at x; on a tie the first, as the axes come
-            k = (aj * x + bj).argmin(axis=0)
-            aj, bj = aj[k, cols], bj[k, cols]
+        if n_maps > 1:  # the least map at x; on a tie the first, as the axes come
+            values = a_blk[j] * x[:, None]
+            values += b_blk[j]
+            pick = values.argmin(axis=1)
+            pick += rows
+            aj, bj = a_flat[j].take(pick), b_flat[j].take(pick)
+            if y_blk is not None:
+                x = np.minimum(c_blk[j], values.ravel().take(pick), out=y_blk[j])
         else:
-            aj, bj = aj[0], bj[0]
-        if y_blk is not None:
-            x = y_blk[j] = np.minimum(c_blk[j], aj * x + bj)
+            aj, bj = a_flat[j], b_flat[j]
+            if y_blk is not None:
+                x = np.minimum(c_blk[j], aj * x + bj, out=y_blk[j])
         big_c = np.minimum(c_blk[j], aj * big_c + bj)
         big_b = aj * big_b + bj
         big_a = aj * big_a
@@ -96,9 +103,9 @@ def _sweep(c_blk, a_blk, b_blk, x_in, at=None):
 
 def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
     """v padded to whole blocks, as (step, block): each row one step of every block; a list of such vectors
-    (the maps of every axis) as (map, step, block)."""
+    (the maps of every axis) as (step, block, map)."""
     if isinstance(v, list):
-        return np.stack([_blocks(vi, fill) for vi in v])
+        return np.stack([_blocks(vi, fill) for vi in v], axis=2)
     n = len(v)
     whole, rest = divmod(n, _BLOCK)
     out = np.empty((_BLOCK, whole + (rest > 0)))
