@@ -44,61 +44,71 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
     a_blk, b_blk = _blocks(a, 1.0), _blocks(b, 0.0)
     at = c_blk if guess is None else _blocks(guess[:n], np.inf)
     x_in = np.r_[at[0, 1:], end]  # the value after each block's last step: the next block's first
-    maps = _sweep(c_blk, a_blk, b_blk, x_in, at)[1]
-    y_blk = ran = None
+    maps = _composed(c_blk, *_chosen(a_blk, b_blk, np.vstack([at[1:], x_in])))
+    y_blk, picks = np.empty_like(c_blk), np.empty(c_blk.shape, dtype=np.intp)
+    ran = None
     for _ in range(_ROUNDS):
         first = _chain(maps[0], maps[1], maps[2], end)
         x_in = np.minimum(x_in, np.r_[first[1:], end])  # both are upper bounds of the solution
-        if y_blk is None or ran is None:
-            y_blk, maps = _sweep(c_blk, a_blk, b_blk, x_in)
-        else:  # a block run again from the same input gives the same values and map: only the others are
-            again = np.flatnonzero(x_in != ran)
-            y_blk[:, again], part = _sweep(c_blk[:, again], a_blk[:, again], b_blk[:, again], x_in[again])
-            for whole, new_part in zip(maps, part):
-                whole[again] = new_part
+        # a block run again from the same input gives the same values and map: only the others are
+        again = slice(None) if ran is None else np.flatnonzero(x_in != ran)
+        c_part, a_part, b_part = c_blk[:, again], a_blk[:, again], b_blk[:, again]
+        y_blk[:, again], picks[:, again] = _run(c_part, a_part, b_part, x_in[again])
         ran = x_in
         new_in = np.r_[y_blk[0, 1:], end]  # what each block's input now is: the next block's first value
         settled = not np.any(new_in < x_in * (1.0 - _SETTLED))
         x_in = new_in
         if settled:
             break
-    assert y_blk is not None, "at least one round"
+        for whole, part in zip(maps, _composed(c_part, *_picked(a_part, b_part, picks[:, again]))):
+            whole[again] = part
     return np.r_[y_blk.T.reshape(-1)[:n], end]
 
 
-def _sweep(c_blk, a_blk, b_blk, x_in, at=None):
-    """Every block run from its input ``x_in`` (the value after its last step) with, at each step, the least
-    of the axes' maps (step 2), and composed into one map min(C, A y + B) of its input by the maps chosen
-    (step 1). With ``at`` (values in block layout), the maps are chosen at those values and nothing is run.
-    ``a_blk`` and ``b_blk`` are (step, block, map) arrays: each step's maps of every block one contiguous
-    row, so a step chooses with one argmin along rows and two flat takes (numpy's own cost per call, not
-    the arithmetic, bounds a sweep of the short programs' 60 blocks). Returns the values (None with ``at``)
-    and the composed maps (C, A, B)."""
-    steps, nb, n_maps = a_blk.shape
-    a_flat, b_flat = a_blk.reshape(steps, nb * n_maps), b_blk.reshape(steps, nb * n_maps)
-    rows = np.arange(0, nb * n_maps, n_maps)  # each block's first map in a step's flat row
+def _chosen(a_blk: np.ndarray, b_blk: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """At each step the least of the axes' maps at the value after it, ``x`` (step, block) (step 1's binding
+    axes): its a and b, (step, block). On a tie the first, as the axes come."""
+    values = a_blk * x[:, :, None]
+    values += b_blk
+    return _picked(a_blk, b_blk, values.argmin(axis=2))
+
+
+def _picked(a_blk: np.ndarray, b_blk: np.ndarray, picks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The a and b of map ``picks`` (step, block) at each step of every block."""
+    at = picks[:, :, None]
+    return np.take_along_axis(a_blk, at, axis=2)[:, :, 0], np.take_along_axis(b_blk, at, axis=2)[:, :, 0]
+
+
+def _composed(c_blk: np.ndarray, a_sel: np.ndarray, b_sel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each block's steps y -> min(c, a y + b), one map a step, composed into one map min(C, A y + B) of the
+    value after its last step (step 1)."""
+    nb = c_blk.shape[1]
     big_a, big_b, big_c = np.ones(nb), np.zeros(nb), np.full(nb, np.inf)
-    y_blk = None if at is not None else np.empty_like(c_blk)
-    x = x_in
-    for j in range(steps - 1, -1, -1):
-        if at is not None and j < steps - 1:
-            x = at[j + 1]
-        if n_maps > 1:  # the least map at x; on a tie the first, as the axes come
-            values = a_blk[j] * x[:, None]
-            values += b_blk[j]
-            pick = values.argmin(axis=1)
-            pick += rows
-            aj, bj = a_flat[j].take(pick), b_flat[j].take(pick)
-            if y_blk is not None:
-                x = np.minimum(c_blk[j], values.ravel().take(pick), out=y_blk[j])
-        else:
-            aj, bj = a_flat[j], b_flat[j]
-            if y_blk is not None:
-                x = np.minimum(c_blk[j], aj * x + bj, out=y_blk[j])
+    for j in range(len(c_blk) - 1, -1, -1):
+        aj, bj = a_sel[j], b_sel[j]
         big_c = np.minimum(c_blk[j], aj * big_c + bj)
         big_b = aj * big_b + bj
         big_a = aj * big_a
-    return y_blk, (big_c, big_a, big_b)
+    return big_c, big_a, big_b
+
+
+def _run(c_blk: np.ndarray, a_blk: np.ndarray, b_blk: np.ndarray, x_in: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every block run from its input ``x_in`` (the value after its last step) with, at each step, the least of
+    the axes' maps (step 2; on a tie the first). ``a_blk`` and ``b_blk`` are (step, block, map) arrays: each
+    step's maps of every block one contiguous row, so a step chooses with one argmin along rows and one flat
+    take (numpy's own cost per call, not the arithmetic, bounds a run of the short programs' 60 blocks).
+    Returns the values and the map chosen at each step, (step, block) both; the maps are composed only
+    where another round needs them (``_composed``)."""
+    steps, nb, n_maps = a_blk.shape
+    y_blk, picks = np.empty_like(c_blk), np.empty((steps, nb), dtype=np.intp)
+    rows = np.arange(0, nb * n_maps, n_maps)  # each block's first map in a step's flat row
+    x = x_in
+    for j in range(steps - 1, -1, -1):
+        values = a_blk[j] * x[:, None]
+        values += b_blk[j]
+        pick = values.argmin(axis=1, out=picks[j])
+        x = np.minimum(c_blk[j], values.ravel().take(pick + rows), out=y_blk[j])
+    return y_blk, picks
 
 
 def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
@@ -126,10 +136,12 @@ def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarra
             x = min(ck, ak * x + bk)
             y[n - 1 - k] = x
         return y
-    c_blk, a_blk, b_blk = _blocks(c, np.inf), _blocks([a], 1.0), _blocks([b], 0.0)
-    big_c, big_a, big_b = _sweep(c_blk, a_blk, b_blk, None, c_blk)[1]  # one map: nothing to choose
-    first = _chain(big_c, big_a, big_b, end)  # each block's first value
-    y_blk = _sweep(c_blk, a_blk, b_blk, np.r_[first[1:], end])[0]
+    c_blk, a_blk, b_blk = _blocks(c, np.inf), _blocks(a, 1.0), _blocks(b, 0.0)
+    first = _chain(*_composed(c_blk, a_blk, b_blk), end)  # each block's first value
+    y_blk = np.empty_like(c_blk)
+    x = np.r_[first[1:], end]
+    for j in range(_BLOCK - 1, -1, -1):
+        x = np.minimum(c_blk[j], a_blk[j] * x + b_blk[j], out=y_blk[j])
     return y_blk.T.reshape(-1)[:n]
 
 
