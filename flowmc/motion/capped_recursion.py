@@ -113,17 +113,16 @@ def _run(c_blk: np.ndarray, a_blk: np.ndarray, b_blk: np.ndarray, x_in: np.ndarr
 
 def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
     """v padded to whole blocks, as (step, block): each row one step of every block; a list of such vectors
-    (the maps of every axis) as (step, block, map)."""
-    if isinstance(v, list):
-        return np.stack([_blocks(vi, fill) for vi in v], axis=2)
-    n = len(v)
+    (the maps of every axis) as (step, block, map), each written in place (one fresh array)."""
+    rows = v if isinstance(v, list) else [v]
+    n = len(rows[0])
     whole, rest = divmod(n, _BLOCK)
-    out = np.empty((_BLOCK, whole + (rest > 0)))
-    out[:, :whole] = v[:whole * _BLOCK].reshape(whole, _BLOCK).T  # written in place: one fresh array, not two
-    if rest:
-        out[:rest, whole] = v[whole * _BLOCK:]
-        out[rest:, whole] = fill
-    return out
+    out = np.empty((_BLOCK, whole + (rest > 0), len(rows)))
+    for i, vi in enumerate(rows):
+        out[:, :whole, i] = vi[:whole * _BLOCK].reshape(whole, _BLOCK).T
+        out[:rest, whole:, i] = vi[whole * _BLOCK:, None]
+    out[rest:, whole:] = fill
+    return out if isinstance(v, list) else out[:, :, 0]
 
 
 def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarray:
