@@ -159,7 +159,7 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
     bend = np.cross(unit, kappa[:, None] * normal)
 
     def fitted_turn(ka: int, kb: int) -> float:  # 0 unless nearly all of it turns one way (_ONE_WAY)
-        inside = bend[(u >= curve.u0[ka]) & (u < curve.u1[kb])]
+        inside = bend[np.searchsorted(u, curve.u0[ka]):np.searchsorted(u, curve.u1[kb])]  # u ascends: a slice
         net = float(np.linalg.norm(np.sum(inside, axis=0)))
         return net * (u[1] - u[0]) if net >= _ONE_WAY * float(np.sum(np.linalg.norm(inside, axis=1))) else 0.0
 
@@ -197,20 +197,27 @@ def _pieces(curve: PlannedCurve, u: np.ndarray, bound: np.ndarray, stops: np.nda
     boundaries, at least _MIN_LEN long and turning (``turned``) _MIN_TURN or more, in parts about ``part`` mm
     long (each kept or not on its own), cut between intervals."""
     edges = np.flatnonzero(np.diff(np.r_[0, bound.astype(int), 0]))
+    ends: list[tuple[float, float]] = []
+    for ua, ub in zip(u[edges[::2]].tolist(), u[edges[1::2] - 1].tolist()):
+        cuts = stops[(stops > ua) & (stops < ub)].tolist()
+        ends += zip([ua, *cuts], [*cuts, ub])
+    if not ends:
+        return []
+    lo, hi = np.array(ends).T
+    ka, kb = curve.interval_at(lo), curve.interval_at(hi)  # every stretch's at once: a lookup per stretch costs more
+    ka += curve.u0[ka] < lo - _SCAN  # intervals that reach well past the bound samples stay
+    kb -= curve.u1[kb] > hi + _SCAN
+    keep = kb >= ka
+    ka, kb = ka[keep], kb[keep]
+    long = curve.u1[kb] - curve.u0[ka] >= _MIN_LEN
     pieces = []
-    for a, b in zip(edges[::2], edges[1::2]):
-        ua, ub = u[a], u[b - 1]
-        cuts = stops[(stops > ua) & (stops < ub)]
-        for lo, hi in zip(np.r_[ua, cuts], np.r_[cuts, ub]):
-            ka, kb = (int(k) for k in curve.interval_at(np.array([lo, hi])))
-            ka += int(curve.u0[ka] < lo - _SCAN)  # intervals that reach well past the bound samples stay
-            kb -= int(curve.u1[kb] > hi + _SCAN)
-            if kb < ka or curve.u1[kb] - curve.u0[ka] < _MIN_LEN or turned(ka, kb) < _MIN_TURN:
-                continue
-            parts = max(1, int(round((curve.u1[kb] - curve.u0[ka]) / part)))
-            cut = np.searchsorted(curve.u0[ka:kb + 1], np.linspace(curve.u0[ka], curve.u1[kb], parts + 1)[1:-1]) + ka
-            bounds = np.unique(np.r_[ka, cut, kb + 1])
-            pieces += [(int(x), int(y) - 1) for x, y in zip(bounds[:-1], bounds[1:])]
+    for a, b in zip(ka[long].tolist(), kb[long].tolist()):
+        if turned(a, b) < _MIN_TURN:
+            continue
+        parts = max(1, int(round((curve.u1[b] - curve.u0[a]) / part)))
+        cut = np.searchsorted(curve.u0[a:b + 1], np.linspace(curve.u0[a], curve.u1[b], parts + 1)[1:-1]) + a
+        bounds = np.unique(np.r_[a, cut, b + 1])
+        pieces += [(int(x), int(y) - 1) for x, y in zip(bounds[:-1], bounds[1:])]
     return pieces
 
 
