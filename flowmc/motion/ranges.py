@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CHUNK", "CHUNKED", "Windows", "window_min", "window_max", "moving_means", "range_medians", "search_right"]
+__all__ = ["CHUNK", "CHUNKED", "Windows", "window_min", "window_max", "moving_means", "MovingMeans", "range_medians",
+           "search_right"]
 
 CHUNK = 16384  # elements a long pass works out together (the curve's points, the time law's intervals) ...
 CHUNKED = 4 * CHUNK  # ... where there are more than this: every temporary then stays in cache
@@ -90,19 +91,33 @@ def moving_means(values: np.ndarray, lengths: np.ndarray, size: int) -> np.ndarr
     scipy.ndimage.uniform_filter1d (mode "reflect"), which gives the same values: one call per segment is
     slow for hundreds of short runs, and importing scipy.ndimage costs about 0.2 s of CPU in a fresh process.
     """
-    if size % 2 != 1:
-        raise ValueError(f"moving_means needs an odd window, got {size}")
-    values = np.asarray(values, dtype=float)
-    lengths = np.asarray(lengths, dtype=int)
-    if int(lengths.sum()) != len(values) or np.any(lengths <= 0):
-        raise ValueError(f"segment lengths must be positive and sum to {len(values)}")
-    half = size // 2
-    seg = np.repeat(np.arange(len(lengths)), lengths + 2 * half)
-    ext_start = np.r_[0, np.cumsum(lengths + 2 * half)[:-1]]
-    local = np.arange(len(seg)) - ext_start[seg] - half  # -half .. length + half - 1 in each segment
-    n, start = lengths[seg], np.r_[0, np.cumsum(lengths)[:-1]][seg]
-    m = np.mod(local, 2 * n)
-    ext = values[start + np.where(m < n, m, 2 * n - 1 - m)]
-    total = np.r_[0.0, np.cumsum(ext)]
-    at = np.arange(len(values)) - np.repeat(np.r_[0, np.cumsum(lengths)[:-1]], lengths) + np.repeat(ext_start, lengths)
-    return (total[at + size] - total[at]) / size
+    return MovingMeans(lengths, size)(values)
+
+
+class MovingMeans:
+    """``moving_means`` over one layout of segments, where each mean's values come from worked out once: the
+    smoothing fit takes the means of new values over the same runs every iteration, and laying the mirrored
+    segments out is most of the work on arrays of a thousand values."""
+
+    def __init__(self, lengths: np.ndarray, size: int):
+        if size % 2 != 1:
+            raise ValueError(f"moving_means needs an odd window, got {size}")
+        lengths = np.asarray(lengths, dtype=int)
+        if np.any(lengths <= 0):
+            raise ValueError("segment lengths must be positive")
+        half = size // 2
+        seg = np.repeat(np.arange(len(lengths)), lengths + 2 * half)
+        ext_start = np.r_[0, np.cumsum(lengths + 2 * half)[:-1]]
+        local = np.arange(len(seg)) - ext_start[seg] - half  # -half .. length + half - 1 in each segment
+        n, start = lengths[seg], np.r_[0, np.cumsum(lengths)[:-1]][seg]
+        m = np.mod(local, 2 * n)
+        self.size, self.n = size, int(lengths.sum())
+        self.src = start + np.where(m < n, m, 2 * n - 1 - m)  # each mirrored segment's values, where they come from
+        self.at = np.arange(self.n) - np.repeat(np.r_[0, np.cumsum(lengths)[:-1]], lengths) + np.repeat(ext_start, lengths)
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        values = np.asarray(values, dtype=float)
+        if len(values) != self.n:
+            raise ValueError(f"segment lengths must be positive and sum to {len(values)}")
+        total = np.r_[0.0, np.cumsum(values[self.src])]
+        return (total[self.at + self.size] - total[self.at]) / self.size
