@@ -128,13 +128,13 @@ def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
 def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarray:
     """y_k = min(c_k, a_k y_{k+1} + b_k) for k = n-1 .. 0 from y_n = end; returns y_0 .. y_{n-1} (step 1)."""
     n = len(a)
-    if n <= _SHORT:
-        y = np.empty(n)
+    if n <= _SHORT:  # in Python floats, collected in a list (writing each into an array costs as much as its step)
+        y = []
         x = end
-        for k, (ck, ak, bk) in enumerate(zip(c.tolist()[::-1], a.tolist()[::-1], b.tolist()[::-1])):
+        for ck, ak, bk in zip(c.tolist()[::-1], a.tolist()[::-1], b.tolist()[::-1]):
             x = min(ck, ak * x + bk)
-            y[n - 1 - k] = x
-        return y
+            y.append(x)
+        return np.array(y[::-1])
     c_blk, a_blk, b_blk = _blocks(c, np.inf), _blocks(a, 1.0), _blocks(b, 0.0)
     first = _chain(*_composed(c_blk, a_blk, b_blk), end)  # each block's first value
     y_blk = np.empty_like(c_blk)
