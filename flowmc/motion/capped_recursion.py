@@ -74,9 +74,10 @@ def _chosen(a_blk: np.ndarray, b_blk: np.ndarray, x: np.ndarray) -> tuple[np.nda
 
 
 def _picked(a_blk: np.ndarray, b_blk: np.ndarray, picks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The a and b of map ``picks`` (step, block) at each step of every block."""
-    at = picks[:, :, None]
-    return np.take_along_axis(a_blk, at, axis=2)[:, :, 0], np.take_along_axis(b_blk, at, axis=2)[:, :, 0]
+    """The a and b of map ``picks`` (step, block) at each step of every block (contiguous (step, block, map)
+    arrays: one flat take each, a third of np.take_along_axis's time)."""
+    flat = picks + np.arange(0, a_blk.size, a_blk.shape[2]).reshape(picks.shape)  # + each step's and block's first map
+    return a_blk.reshape(-1).take(flat), b_blk.reshape(-1).take(flat)
 
 
 def _composed(c_blk: np.ndarray, a_sel: np.ndarray, b_sel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
