@@ -85,9 +85,8 @@ def _composed(c_blk: np.ndarray, a_sel: np.ndarray, b_sel: np.ndarray) -> tuple[
     value after its last step (step 1)."""
     nb = c_blk.shape[1]
     big_a, big_b, big_c = np.ones(nb), np.zeros(nb), np.full(nb, np.inf)
-    for j in range(len(c_blk) - 1, -1, -1):
-        aj, bj = a_sel[j], b_sel[j]
-        big_c = np.minimum(c_blk[j], aj * big_c + bj)
+    for cj, aj, bj in zip(c_blk[::-1], a_sel[::-1], b_sel[::-1]):
+        big_c = np.minimum(cj, aj * big_c + bj)
         big_b = aj * big_b + bj
         big_a = aj * big_a
     return big_c, big_a, big_b
@@ -104,11 +103,11 @@ def _run(c_blk: np.ndarray, a_blk: np.ndarray, b_blk: np.ndarray, x_in: np.ndarr
     y_blk, picks = np.empty_like(c_blk), np.empty((steps, nb), dtype=np.intp)
     rows = np.arange(0, nb * n_maps, n_maps)  # each block's first map in a step's flat row
     x = x_in
-    for j in range(steps - 1, -1, -1):
-        values = a_blk[j] * x[:, None]
-        values += b_blk[j]
-        pick = values.argmin(axis=1, out=picks[j])
-        x = np.minimum(c_blk[j], values.ravel().take(pick + rows), out=y_blk[j])
+    for aj, bj, cj, pj, yj in zip(a_blk[::-1], b_blk[::-1], c_blk[::-1], picks[::-1], y_blk[::-1]):
+        values = aj * x[:, None]
+        values += bj
+        pick = values.argmin(axis=1, out=pj)
+        x = np.minimum(cj, values.ravel().take(pick + rows), out=yj)
     return y_blk, picks
 
 
