@@ -139,8 +139,8 @@ def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarra
     first = _chain(*_composed(c_blk, a_blk, b_blk), end)  # each block's first value
     y_blk = np.empty_like(c_blk)
     x = np.r_[first[1:], end]
-    for j in range(_BLOCK - 1, -1, -1):
-        x = np.minimum(c_blk[j], a_blk[j] * x + b_blk[j], out=y_blk[j])
+    for cj, aj, bj, yj in zip(c_blk[::-1], a_blk[::-1], b_blk[::-1], y_blk[::-1]):
+        x = np.minimum(cj, aj * x + bj, out=yj)
     return y_blk.T.reshape(-1)[:n]
 
 
