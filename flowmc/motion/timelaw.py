@@ -66,11 +66,10 @@ from flowmc.motion.capped_recursion import descend
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, search_right, window_max, window_min
-from flowmc.motion.sample_clock import setpoint_times
+from flowmc.motion.sample_clock import sample_count, setpoint_times
 
-__all__ = ["TimeLaw", "plan_time_law", "trapezoid_laws", "plan_jerk_limited", "sample_time_law", "sampled_accel", "sampled_jerk",
-           "arc_length_at", "speed_at",
-           "frame"]
+__all__ = ["TimeLaw", "plan_time_law", "trapezoid_laws", "plan_jerk_limited", "sample_time_law", "samples_of",
+           "sampled_accel", "sampled_jerk", "arc_length_at", "speed_at", "frame"]
 
 _ACCEL_SLACK = 1e-7  # sampled accelerations this share over amax are rounding (the plans before: up to 5e-8)
 _RHO = 0.999  # caps start at this share of what the normal acceleration (and jerk) alone allow
@@ -991,9 +990,18 @@ def sample_time_law(law: TimeLaw, curve: PlannedCurve, period: float,
     every stop) are inserted at the stop nodes. BudgetError before allocating more setpoints (of ``axes``
     columns) than the budget allows."""
     ph = _phases(law)
-    total = float(ph.start[-1] + ph.dur[-1]) + law.window
-    s, seg = arc_length_at(law, ph, setpoint_times(total, period, axes))
+    s, seg = arc_length_at(law, ph, setpoint_times(_duration(law, ph), period, axes))
     return law.u_sampled(s, curve), seg
+
+
+def samples_of(law: TimeLaw, period: float) -> int:
+    """How many samples ``sample_time_law`` gives, without sampling."""
+    return sample_count(_duration(law, _phases(law)), period)
+
+
+def _duration(law: TimeLaw, ph: _Phases) -> float:
+    """The motion's length in time, rests and the filter's lag included."""
+    return float(ph.start[-1] + ph.dur[-1]) + law.window
 
 
 def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
