@@ -803,7 +803,7 @@ def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, r
     depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
     arrive = ph.start[0::2]
     times = np.concatenate([depart[:-1], arrive[1:] + window])
-    filtered = (ph.integral(times, _leaving_first(ph, times, m)) - ph.integral(times - window)).astype(float) / window
+    filtered = (_integral_leaving_first(ph, times, m) - ph.integral(times - window)).astype(float) / window
     lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
     hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
     k = np.arange(m)
@@ -812,14 +812,14 @@ def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, r
     return lo, hi, windows, windows.min(cap)
 
 
-def _leaving_first(ph: _Phases, times: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-    """``ph.at(times)``, the first m of which are the times the motion leaves nodes 0..m-1: the starts of phases
-    1, 3, ..., found without a search where no phase after one of them lasts no time at all."""
+def _integral_leaving_first(ph: _Phases, times: np.ndarray, m: int) -> np.ndarray:
+    """``ph.integral(times)``, the first m of which are the times the motion leaves nodes 0..m-1: the starts of
+    phases 1, 3, ..., where no phase after one of them lasts no time at all. There the integral is the whole phases'
+    before, found without a search and with nothing of the phase's own to add (that part is 0)."""
     leaving = np.arange(1, 2 * m, 2)
     if not (np.array_equal(times[:m], ph.start[leaving]) and np.all(ph.start[leaving + 1] > ph.start[leaving])):
-        return ph.at(times)
-    k, tau = ph.at(times[m:])
-    return np.concatenate([leaving, k]), np.concatenate([np.zeros(m), tau])
+        return ph.integral(times)
+    return np.concatenate([ph.cumulative[leaving], ph.integral(times[m:])])
 
 
 def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
@@ -864,16 +864,22 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     r_nodes = np.repeat(right1 + 1, r_len) - _ranks(r_len)  # right1 down to fall
     l_key = y[l_nodes] + np.repeat(idx, l_len) * big
     r_key = y[r_nodes] + np.repeat(idx, r_len) * big
-    l_off, r_off = np.r_[0, np.cumsum(l_len)[:-1]], np.r_[0, np.cumsum(r_len)[:-1]]
+    shift = idx * big
 
-    def inner(key, nodes, off, length, level):
-        """Where the side is first at or above the level, at a node (the plateau starts and ends at nodes)."""
-        j = np.clip(np.searchsorted(key, level + idx * big), off, off + length - 1)
-        return s[nodes[j]]
+    def inner(key, nodes, length):
+        """Where the side is first at or above a level, at a node (the plateau starts and ends at nodes), given the
+        side's sorted keys, its nodes and lengths: the bisection's 40 rounds look up only what changes."""
+        off = np.r_[0, np.cumsum(length)[:-1]]
+        last, at = off + length - 1, s[nodes]
 
+        def where(level):
+            return at[np.minimum(np.maximum(np.searchsorted(key, level + shift), off), last)]
+        return where
+
+    right, left = inner(r_key, r_nodes, r_len), inner(l_key, l_nodes, l_len)
     for _ in range(40):
         mid = 0.5 * (lo + hi)
-        width = inner(r_key, r_nodes, r_off, r_len, mid) - inner(l_key, l_nodes, l_off, l_len, mid)
+        width = right(mid) - left(mid)
         wide = width >= window * np.sqrt(mid)
         lo, hi = np.where(wide, mid, lo), np.where(wide, hi, mid)
     level = np.minimum(lo, top * (1.0 - 1e-6))
@@ -915,7 +921,7 @@ class _Phases:
         return self.s0[k] + tau * (self.v0[k] + 0.5 * self.a[k] * tau)
 
     @cached_property
-    def _cumulative(self) -> np.ndarray:
+    def cumulative(self) -> np.ndarray:
         """The integral of s over every whole phase before each, as long doubles."""
         part = self.dur * (self.s0 + self.dur * (0.5 * self.v0 + self.dur * self.a / 6.0))
         return np.concatenate([[0.0], np.cumsum(part.astype(np.longdouble))])
@@ -923,7 +929,7 @@ class _Phases:
     def integral(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Running integral of s over [0, t] (s is s0 before 0 and its end value after the last phase), as
         long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known."""
-        cum = self._cumulative
+        cum = self.cumulative
         k, tau = self.at(t) if where is None else where
         total = cum[k]
         total += tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))  # widened exactly, added as long doubles
@@ -979,7 +985,9 @@ def _phases_of(s: np.ndarray, y: np.ndarray, accel: np.ndarray, wait: np.ndarray
     v0[1::2] = v[:-1]
     acc[1::2] = accel
     own[0::2] = owner
-    start = np.concatenate([[0.0], np.cumsum(dur)[:-1]])
+    start = np.empty(2 * n - 1)
+    start[0] = 0.0
+    np.cumsum(dur[:-1], out=start[1:])
     return _Phases(start, dur, s0, v0, acc, own)
 
 
