@@ -870,7 +870,7 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     r_key = y[r_nodes] + np.repeat(idx, r_len) * big
     shift = idx * big
 
-    def inner(key, nodes, length):
+    def crossing(key, nodes, length):
         """Where the side is first at or above a level, at a node (the plateau starts and ends at nodes), given the
         side's sorted keys, its nodes and lengths: the bisection's 40 rounds look up only what changes."""
         off = np.r_[0, np.cumsum(length)[:-1]]
@@ -880,7 +880,7 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
             return at[np.minimum(np.maximum(np.searchsorted(key, level + shift), off), last)]
         return where
 
-    right, left = inner(r_key, r_nodes, r_len), inner(l_key, l_nodes, l_len)
+    right, left = crossing(r_key, r_nodes, r_len), crossing(l_key, l_nodes, l_len)
     for _ in range(40):
         mid = 0.5 * (lo + hi)
         width = right(mid) - left(mid)
