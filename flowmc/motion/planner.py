@@ -31,7 +31,15 @@ from flowmc.motion.pieces import _check_axes
 from flowmc.motion.reshape import faster_reshaped
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
 from flowmc.motion.smoothing import Smoothed, smooth_path
-from flowmc.motion.timelaw import TimeLaw, plan_jerk_limited, sample_time_law, sampled_accel, sampled_jerk, trapezoid_laws
+from flowmc.motion.timelaw import (
+    TimeLaw,
+    plan_jerk_limited,
+    sample_time_law,
+    sampled_accel,
+    sampled_jerk,
+    samples_of,
+    trapezoid_laws,
+)
 from flowmc.motion.trajectory import Trajectory
 
 __all__ = ["SmoothPlan", "plan_smooth", "PROFILES"]
@@ -109,8 +117,8 @@ def _blended_or_stopped(path: Path, machine: Machine, lim: PathLimits, sm: Smoot
     law, u, dwell_seg, pos = _timed(path, machine, lim, stopped, jerk)
     fast = None
     if sm.blends * law.window >= _BLEND_SHARE * len(u) * machine.period:
-        blended = _timed(path, machine, lim, sm, jerk)
-        if len(blended[1]) <= (1.0 + _BLEND_SLACK) * len(u):
+        blended = _timed(path, machine, lim, sm, jerk, most=(1.0 + _BLEND_SLACK) * len(u))
+        if blended is not None:
             fast = _retimed(path, machine, lim, sm, *blended)
     if fast is None or len(fast[1]) >= len(u):
         slow = _retimed(path, machine, lim, stopped, law, u, dwell_seg, pos)
@@ -120,9 +128,10 @@ def _blended_or_stopped(path: Path, machine: Machine, lim: PathLimits, sm: Smoot
 
 
 def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bool,
-           known: tuple[TimeLaw, Callable] | None = None):
+           known: tuple[TimeLaw, Callable] | None = None, most: float = np.inf):
     """The time law on a smoothed curve (``known``: the trapezoid law already worked out for it, and the function
-    that gives it for tight ranges, ``trapezoid_laws``) and its samples."""
+    that gives it for tight ranges, ``trapezoid_laws``) and its samples; None if a jerk-limited plan has more
+    than ``most`` samples (a blended plan no use against the stopped one; its mended law is then not sampled)."""
     curve = sm.curve
 
     def sampled(law: TimeLaw):
@@ -138,8 +147,10 @@ def _timed(path: Path, machine: Machine, lim: PathLimits, sm: Smoothed, jerk: bo
         if sampled_jerk(pos[:, list(lim.cols)], lim) > 1.0:  # a swing of the acceleration broke the jerk limit: mend them all
             better = mended()
             if better is not law:
+                if samples_of(better, machine.period) > most:
+                    return None
                 law, u, dwell_seg, pos = sampled(better)
-        return law, u, dwell_seg, pos
+        return (law, u, dwell_seg, pos) if len(u) <= most else None
     if known is None:
         laws = trapezoid_laws(*args)
         law = laws(None)

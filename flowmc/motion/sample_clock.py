@@ -11,13 +11,17 @@ import numpy as np
 
 import flowmc.budget as budget
 
-__all__ = ["sample_times", "setpoint_times"]
+__all__ = ["sample_count", "sample_times", "setpoint_times"]
+
+
+def sample_count(total: float, period: float) -> int:
+    """How many samples ``sample_times`` gives, without making them (a plan weighed by its length only)."""
+    return max(1, math.ceil(total / period - 1e-9)) + 1
 
 
 def sample_times(total: float, period: float) -> np.ndarray:
     """t = kT for k = 0..N, the last exactly at the end of a motion lasting ``total``."""
-    n = max(1, math.ceil(total / period - 1e-9))
-    ts = np.arange(n + 1) * period
+    ts = np.arange(sample_count(total, period)) * period
     ts[-1] = total
     return ts
 

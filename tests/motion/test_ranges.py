@@ -64,3 +64,11 @@ def test_search_right_is_searchsorted_ties_and_both_ends_included():
     ascending = np.sort(np.r_[rng.uniform(-5, 55, 300), keys[:10], [-10.0, 60.0]])  # needles on keys and outside
     for t in (ascending, rng.permutation(ascending), ascending[:20], np.repeat(keys[5], 200)):
         assert np.array_equal(search_right(keys, t), np.searchsorted(keys, t, side="right"))
+
+
+def test_search_right_on_a_run_of_samples_within_many_keys():
+    """A chunk of a long sampling: many keys in all, few between its first and last sample, some on them."""
+    keys = np.sort(np.r_[np.arange(0.0, 1000.0, 0.7), [400.0, 400.0, 400.0]])
+    t = np.sort(np.r_[np.linspace(398.6, 410.0, 300), [400.0, 400.0]])
+    for run in (t, t[5:], np.r_[t, 410.2]):
+        assert np.array_equal(search_right(keys, run), np.searchsorted(keys, run, side="right"))

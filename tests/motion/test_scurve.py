@@ -131,6 +131,18 @@ def test_plan_jerk_limited_gives_the_laws_plan_time_law_gives_unmended_and_mende
     assert not np.array_equal(again.y, first.y)  # this walk's swings needed mending
 
 
+def test_samples_of_counts_the_samples_of_a_law_without_sampling_it():
+    path = Path.polyline(np.c_[np.array(SWINGING), np.zeros(len(SWINGING))], feed=200.0)
+    machine = cam_machine(jerk=500.0)
+    lim = PathLimits.of(machine)
+    sm = smooth_path(path, lim, 0.05, continuity=2)
+    args = (sm.curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, lambda u: sm.seg_feed[sm.curve.segment_at(u)], lim)
+    first, mended = timelaw.plan_jerk_limited(*args)
+    for law in (first, mended()):
+        u, _ = timelaw.sample_time_law(law, sm.curve, machine.period)
+        assert timelaw.samples_of(law, machine.period) == len(u)
+
+
 def test_a_law_within_the_jerk_limit_keeps_its_swings_unmended_and_is_faster():
     # mixed at j = 500: mending the swings everywhere costs 2 % and was not needed (sampled jerk 0.99 x)
     data = json.loads((REF / "mixed.json").read_text())
