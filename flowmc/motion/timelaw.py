@@ -191,16 +191,16 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
     u = np.unique(np.concatenate(parts))
     # where the curve turns or its curvature changes quickly, halve the intervals until it does not; lines
     # never need it, and an interval that passed keeps passing, so each round checks only the new halves,
-    # whose ends but the middle were evaluated already (a half lies in its parent's curve interval k)
+    # whose ends but the middle were evaluated already (a half lies in its parent's curve interval k): ``ends``
+    # holds u, curvature and unit tangent (5 rows) at the start and end of each interval checked
     at = np.flatnonzero(~line[curve.interval_at(0.5 * (u[:-1] + u[1:]))])
-    a, b = u[at], u[at + 1]
-    k = curve.interval_at(0.5 * (a + b))
-    tan, kap = _turning(curve, np.r_[a, b], np.r_[k, k])
-    tan_a, tan_b, kap_a, kap_b = tan[:, :len(at)], tan[:, len(at):], kap[:len(at)], kap[len(at):]
+    k = curve.interval_at(0.5 * (u[at] + u[at + 1]))
+    ab = np.r_[u[at], u[at + 1]]
+    tan, kap = _turning(curve, ab, np.r_[k, k])
+    ends = np.concatenate([ab[None], kap[None], tan]).reshape(5, 2, len(at)).transpose(1, 0, 2)
+    mids = [u]  # every middle lies between two nodes: sorted in once at the end
     for _ in range(_REFINE):
-        if not len(at):
-            break
-        d = tan_b - tan_a
+        (a, b), (kap_a, kap_b), d = ends[:, 0], ends[:, 1], ends[1, 2:] - ends[0, 2:]
         turn = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
         change = np.abs(kap_b - kap_a) > _KAPPA_CHANGE * np.maximum(kap_b, kap_a)
         # arcs (even curvature) keep the coarse step: fitted cubics and lone corners' parabolas take the fine one
@@ -210,13 +210,10 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
             break
         mid, k = 0.5 * (a[split] + b[split]), np.repeat(k[split], 2)
         tan_m, kap_m = _turning(curve, mid, k[::2])
-        u = np.insert(u, at[split] + 1, mid)
-        first = at[split] + np.arange(len(split))  # where each split interval's start is now
-        at = (first[:, None] + np.arange(2)).ravel()
-        a, b = _halves(a[split], mid, b[split])
-        kap_a, kap_b = _halves(kap_a[split], kap_m, kap_b[split])
-        tan_a, tan_b = _halves(tan_a[:, split], tan_m, tan_b[:, split])
-    at = np.flatnonzero(np.isin(u, stop_u))
+        mids.append(mid)
+        ends = _halved(ends[:, :, split], np.concatenate([mid[None], kap_m[None], tan_m]))
+    u = np.sort(np.concatenate(mids))
+    at = np.unique(np.searchsorted(u, stop_u))  # the stops' nodes (every stop is one)
     few = np.flatnonzero(np.diff(at) < 3)
     if len(few):
         a, b = u[at[few]], u[at[few + 1]]
@@ -233,11 +230,14 @@ def _turning(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.
     return d1 / sp, np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / sp**3
 
 
-def _halves(lo: np.ndarray, mid: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Values at the ends of intervals split at their middles (along the last axis): at the halves' ends, in order."""
-    def pair(x, y):
-        return np.stack([x, y], axis=-1).reshape(*x.shape[:-1], -1)
-    return pair(lo, mid), pair(mid, hi)
+def _halved(ends: np.ndarray, mids: np.ndarray) -> np.ndarray:
+    """Values at the ends of intervals (start and end, quantity, interval) split at their middles, where they are
+    ``mids`` (quantity, interval): at the halves' ends, in order along the intervals (each interval's ends
+    twice, then the middle's in between, in one array rather than one pair of them a quantity)."""
+    out = np.repeat(ends, 2, axis=2)
+    out[1, :, 0::2] = mids  # the first half ends at the middle
+    out[0, :, 1::2] = mids  # the second starts there
+    return out
 
 
 def _ranks(reps: np.ndarray) -> np.ndarray:
