@@ -52,9 +52,8 @@ import numpy as np
 
 from flowmc.motion.curve import ARC, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.path import Path
 from flowmc.motion.ranges import window_max
-from flowmc.motion.smoothing import Smoothed, fit_tolerance, raw_curve
+from flowmc.motion.smoothing import Smoothed, fit_tolerance
 from flowmc.motion.timelaw import TimeLaw
 
 if TYPE_CHECKING:
@@ -94,14 +93,13 @@ _LEAST_SHARE = 0.05  # of the curve's length the stretches must make up to be re
 # the whole curve (3D_Chips' fitted full turns, 1.2 % of it, gained 14 ms of 146 s for about 5 s of CPU)
 
 
-def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: float,
+def faster_reshaped(sm: Smoothed, raw: PlannedCurve, limits: PathLimits, tolerance: float,
                     laws_of: Callable[[PlannedCurve], Callable[[None], TimeLaw]]
                     ) -> tuple[Smoothed, tuple[TimeLaw, Callable] | None]:
     """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``laws_of(curve)(None)``) passes
-    faster than before, if the whole is faster too; ``sm`` itself otherwise. With it, the time law of the curve
-    returned and its ``laws_of`` where they were worked out (None where nothing was found to reshape), so the
-    caller need not lay them out again."""
-    raw, _ = raw_curve(path)
+    faster than before, if the whole is faster too; ``sm`` itself otherwise (``raw``: the programmed path as
+    a curve, ``raw_curve``). With it, the time law of the curve returned and its ``laws_of`` where they were
+    worked out (None where nothing was found to reshape), so the caller need not lay them out again."""
     tol_fit = fit_tolerance(limits, tolerance)
     found = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
     if not found:
