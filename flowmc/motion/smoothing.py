@@ -590,14 +590,16 @@ class _RunFitter:
 
     def _normal_data(self) -> tuple[list[np.ndarray], np.ndarray]:
         """The data part of the normal equations, B^T B (its four upper diagonals) and B^T q, B the design
-        matrix: each entry summed over the data rows in order, from zero, as a sparse product sums it."""
+        matrix: each entry summed over the data rows in order, from zero, as a sparse product sums it. The
+        rows' first control points rise with the rows, so an entry's terms come in the rows' order also when
+        taken a (the row's place) by a, last a first: each a's terms are whole rows of b (no transposed copy)."""
         b, cp, total = self.design_b, self.design_cp, self.total
         diag = []
         for k in range(4):  # row i adds b[a, i] b[a + k, i] to diagonal k at cp[a, i], a = 0 .. 3 - k
-            w = (b[:4 - k] * b[k:]).T.ravel()
-            diag.append(np.bincount(cp[:4 - k].T.ravel(), weights=w, minlength=total)[:total - k])
-        at = cp.T.ravel()
-        rhs = np.stack([np.bincount(at, weights=(b * self.q[:, j]).T.ravel(), minlength=total)
+            w = (b[:4 - k] * b[k:])[::-1].ravel()
+            diag.append(np.bincount(cp[:4 - k][::-1].ravel(), weights=w, minlength=total)[:total - k])
+        at = cp[::-1].ravel()
+        rhs = np.stack([np.bincount(at, weights=(b * self.q[:, j])[::-1].ravel(), minlength=total)
                         for j in range(3)], axis=1)
         return diag, rhs
 
