@@ -138,9 +138,9 @@ def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarra
     c_blk, a_blk, b_blk = _blocks(c, np.inf), _blocks(a, 1.0), _blocks(b, 0.0)
     first = _chain(*_composed(c_blk, a_blk, b_blk), end)  # each block's first value
     y_blk = np.empty_like(c_blk)
-    x = _then(first[1:], end)
+    row = _then(first[1:], end)  # the value after each block's current step
     for cj, aj, bj, yj in zip(c_blk[::-1], a_blk[::-1], b_blk[::-1], y_blk[::-1]):
-        x = np.minimum(cj, aj * x + bj, out=yj)
+        row = np.minimum(cj, aj * row + bj, out=yj)
     return y_blk.T.reshape(-1)[:n]
 
 

@@ -87,7 +87,7 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     jerk = profile == "scurve"
     _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
     raw = raw_curve(path)  # the programmed path as a curve: smoothing and reshaping both measure against it
-    sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1, raw=raw)
+    sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1, as_curve=raw)
     known = None  # the trapezoid time law of sm.curve and its laws for other tight ranges, where reshaping worked them out
     if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
         sm, known = faster_reshaped(sm, raw[0], lim, tolerance, lambda curve: trapezoid_laws(

@@ -1069,18 +1069,18 @@ def fit_tolerance(limits: PathLimits, tolerance: float) -> float:
 
 
 def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity: int = 1,
-                raw: tuple[PlannedCurve, _Elements] | None = None) -> Smoothed:
+                as_curve: tuple[PlannedCurve, _Elements] | None = None) -> Smoothed:
     """Smooth ``path`` within ``tolerance`` (mm): tangent-continuous joins (``continuity=1``, enough for
     acceleration-limited profiles) or curvature-continuous ones (``continuity=2``, for jerk limits; lone
     sharp line-line corners then get ``_corner_jerk_blends``, and ``Smoothed.stopped`` stops at them).
-    ``raw``: ``raw_curve(path)``, where the caller needs it too.
+    ``as_curve``: ``raw_curve(path)``, where the caller needs it too.
 
     Raises PlanningError naming the segment for gaps, bad feeds, or motion on axes the machine lacks.
     """
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
     seg_feed = checked_feeds(path)
-    raw, el = raw_curve(path) if raw is None else raw
+    raw, el = raw_curve(path) if as_curve is None else as_curve
     g2 = continuity >= 2
     period = limits.period
     v_big = float(np.max(limits.vmax[list(limits.cols)]))
