@@ -474,17 +474,20 @@ class _Budgets:
             moving = t > 0
             inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
             alpha = np.where(moving, self.amax[i] * inv_t, np.inf)
+            # each point's h c and h alpha once for both ways (speeding up's h c is slowing down's negated: the
+            # same products, rounded alike)
+            hc_down = [h * kt[q] * inv_t[q] for q in range(3)]
+            h_alpha = [h * alpha[q] for q in range(3)]
             # slowing down y is the earlier end's speed^2 and kt > 0 helps; speeding up y is the later end's
-            for (a, b), sign, ends in ((down, 1.0, (1.0, 0.0)), (up, -1.0, (0.0, 1.0))):
-                for q in range(3):
-                    hc = h * sign * kt[q] * inv_t[q]
+            for (a, b), hcs, ends in ((down, hc_down, (1.0, 0.0)), (up, [-hc for hc in hc_down], (0.0, 1.0))):
+                for q, hc in enumerate(hcs):
                     w = (hc < 0).astype(float)  # the middle's: hurting at the larger speed, helping at the smaller
                     if q != 1:
                         own = ends[q // 2]
                         w = np.where((hc * own < 0.5) & (hc * (own - 1.0) < 0.5), own, w)
                     den = 1.0 - hc * w
                     a.append((1.0 + hc * (1.0 - w)) / den)
-                    b.append(h * alpha[q] / den)
+                    b.append(h_alpha[q] / den)
         self._maps = ds, (down, up)
         return down, up
 
