@@ -96,6 +96,7 @@ _SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over hal
 _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _NEWTON_CHUNK = 2048  # samples a Newton pass on arc length works on together (12 values a sample in its temporaries)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
+_NEWTON_NODES = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [0, 1], and 1 itself
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,10 +162,12 @@ class TimeLaw:
         by_power = curve.by_power
         c1, c2, c3 = (f * np.take(by_power[m], index, axis=1)[:, None, :] for m, f in ((1, 1.0), (2, 2.0), (3, 3.0)))
         start = curve.u0[index]
-        nodes_x = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [u0, u], and u itself
         for _ in range(2):
-            x = (u0 - start) + (u - u0) * nodes_x  # (4, n) from the row's start
-            d1 = c1 + x * (c2 + x * c3)
+            x = (u0 - start) + (u - u0) * _NEWTON_NODES  # (4, n) from the row's start
+            d1 = x * c3  # c1 + x (c2 + x c3), in place: one (3, 4, n) array
+            d1 += c2
+            d1 *= x
+            d1 += c1
             speed = np.sqrt(np.einsum("ijk,ijk->jk", d1, d1))
             err = self.s[k] + 0.5 * (u - u0) * (_GL3_W @ speed[:-1]) - s
             u = np.clip(u - err / np.maximum(speed[-1], 1e-12), u0, u1)
