@@ -37,32 +37,32 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
     n = len(cap) - 1
     end = float(cap[n])
     if len(a) == 1:
-        return np.r_[_chain(cap[:n], a[0], b[0], end), end]
+        return _then(_chain(cap[:n], a[0], b[0], end), end)
     if n <= 2 * _BLOCK:
         return _sequential(cap, a, b)
     c_blk = _blocks(cap[:n], np.inf)
     a_blk, b_blk = _blocks(a, 1.0), _blocks(b, 0.0)
     at = c_blk if guess is None else _blocks(guess[:n], np.inf)
-    x_in = np.r_[at[0, 1:], end]  # the value after each block's last step: the next block's first
+    x_in = _then(at[0, 1:], end)  # the value after each block's last step: the next block's first
     maps = _composed(c_blk, *_chosen(a_blk, b_blk, np.vstack([at[1:], x_in])))
     y_blk, picks = np.empty_like(c_blk), np.empty(c_blk.shape, dtype=np.intp)
     ran = None
     for _ in range(_ROUNDS):
         first = _chain(maps[0], maps[1], maps[2], end)
-        x_in = np.minimum(x_in, np.r_[first[1:], end])  # both are upper bounds of the solution
+        x_in = np.minimum(x_in, _then(first[1:], end))  # both are upper bounds of the solution
         # a block run again from the same input gives the same values and map: only the others are
         again = slice(None) if ran is None else np.flatnonzero(x_in != ran)
         c_part, a_part, b_part = c_blk[:, again], a_blk[:, again], b_blk[:, again]
         y_blk[:, again], picks[:, again] = _run(c_part, a_part, b_part, x_in[again])
         ran = x_in
-        new_in = np.r_[y_blk[0, 1:], end]  # what each block's input now is: the next block's first value
+        new_in = _then(y_blk[0, 1:], end)  # what each block's input now is: the next block's first value
         settled = not np.any(new_in < x_in * (1.0 - _SETTLED))
         x_in = new_in
         if settled:
             break
         for whole, part in zip(maps, _composed(c_part, *_picked(a_part, b_part, picks[:, again]))):
             whole[again] = part
-    return np.r_[y_blk.T.reshape(-1)[:n], end]
+    return _then(y_blk.T.reshape(-1)[:n], end)
 
 
 def _chosen(a_blk: np.ndarray, b_blk: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -138,10 +138,15 @@ def _chain(c: np.ndarray, a: np.ndarray, b: np.ndarray, end: float) -> np.ndarra
     c_blk, a_blk, b_blk = _blocks(c, np.inf), _blocks(a, 1.0), _blocks(b, 0.0)
     first = _chain(*_composed(c_blk, a_blk, b_blk), end)  # each block's first value
     y_blk = np.empty_like(c_blk)
-    x = np.r_[first[1:], end]
+    row = _then(first[1:], end)  # the value after each block's current step
     for cj, aj, bj, yj in zip(c_blk[::-1], a_blk[::-1], b_blk[::-1], y_blk[::-1]):
-        x = np.minimum(cj, aj * x + bj, out=yj)
+        row = np.minimum(cj, aj * row + bj, out=yj)
     return y_blk.T.reshape(-1)[:n]
+
+
+def _then(v: np.ndarray, end: float) -> np.ndarray:
+    """v with ``end`` after it (np.r_ parses its arguments first: a few microseconds a round)."""
+    return np.concatenate((v, (end,)))
 
 
 def _sequential(cap, a, b):

@@ -30,7 +30,7 @@ from flowmc.motion.path import Path
 from flowmc.motion.pieces import _check_axes
 from flowmc.motion.reshape import faster_reshaped
 from flowmc.motion.signals import path_signals, program_events, segment_start_times
-from flowmc.motion.smoothing import Smoothed, smooth_path
+from flowmc.motion.smoothing import Smoothed, raw_curve, smooth_path
 from flowmc.motion.timelaw import (
     TimeLaw,
     plan_jerk_limited,
@@ -86,10 +86,11 @@ def plan_smooth(path: Path, machine: Machine, *, tolerance: float = 0.05,
     lim = PathLimits.of(machine)
     jerk = profile == "scurve"
     _check_axes(path, list(lim.cols), machine)  # the one check every planner makes (flowmc.motion.pieces)
-    sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1)
+    raw = raw_curve(path)  # the programmed path as a curve: smoothing and reshaping both measure against it
+    sm = smooth_path(path, lim, tolerance, continuity=2 if jerk else 1, as_curve=raw)
     known = None  # the trapezoid time law of sm.curve and its laws for other tight ranges, where reshaping worked them out
     if not jerk:  # programmed arcs reshaped for the per-axis limits, where the time law passes them faster
-        sm, known = faster_reshaped(sm, path, lim, tolerance, lambda curve: trapezoid_laws(
+        sm, known = faster_reshaped(sm, raw[0], lim, tolerance, lambda curve: trapezoid_laws(
             curve, sm.stop_u, sm.stop_dwell, sm.stop_segment, _feed(sm.seg_feed, curve), lim))
     if sm.stopped is None:
         law, u, dwell_seg, pos = _timed(path, machine, lim, sm, jerk, known)

@@ -118,10 +118,13 @@ class MovingMeans:
         self.size, self.n = size, int(lengths.sum())
         self.src = start + np.where(m < n, m, 2 * n - 1 - m)  # each mirrored segment's values, where they come from
         self.at = np.arange(self.n) - np.repeat(np.r_[0, np.cumsum(lengths)[:-1]], lengths) + np.repeat(ext_start, lengths)
+        self.end = self.at + size
 
     def __call__(self, values: np.ndarray) -> np.ndarray:
         values = np.asarray(values, dtype=float)
         if len(values) != self.n:
             raise ValueError(f"segment lengths must be positive and sum to {len(values)}")
-        total = np.r_[0.0, np.cumsum(values[self.src])]
-        return (total[self.at + self.size] - total[self.at]) / self.size
+        total = np.empty(len(self.src) + 1)  # the sums from the first value, 0 before it
+        total[0] = 0.0
+        np.cumsum(values[self.src], out=total[1:])
+        return (total[self.end] - total[self.at]) / self.size

@@ -52,9 +52,8 @@ import numpy as np
 
 from flowmc.motion.curve import ARC, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.path import Path
 from flowmc.motion.ranges import window_max
-from flowmc.motion.smoothing import Smoothed, fit_tolerance, raw_curve
+from flowmc.motion.smoothing import Smoothed, fit_tolerance
 from flowmc.motion.timelaw import TimeLaw
 
 if TYPE_CHECKING:
@@ -94,14 +93,13 @@ _LEAST_SHARE = 0.05  # of the curve's length the stretches must make up to be re
 # the whole curve (3D_Chips' fitted full turns, 1.2 % of it, gained 14 ms of 146 s for about 5 s of CPU)
 
 
-def faster_reshaped(sm: Smoothed, path: Path, limits: PathLimits, tolerance: float,
+def faster_reshaped(sm: Smoothed, raw: PlannedCurve, limits: PathLimits, tolerance: float,
                     laws_of: Callable[[PlannedCurve], Callable[[None], TimeLaw]]
                     ) -> tuple[Smoothed, tuple[TimeLaw, Callable] | None]:
     """``sm`` with the stretches ``reshape_curved`` reshapes that its time law (``laws_of(curve)(None)``) passes
-    faster than before, if the whole is faster too; ``sm`` itself otherwise. With it, the time law of the curve
-    returned and its ``laws_of`` where they were worked out (None where nothing was found to reshape), so the
-    caller need not lay them out again."""
-    raw, _ = raw_curve(path)
+    faster than before, if the whole is faster too; ``sm`` itself otherwise (``raw``: the programmed path as
+    a curve, ``raw_curve``). With it, the time law of the curve returned and its ``laws_of`` where they were
+    worked out (None where nothing was found to reshape), so the caller need not lay them out again."""
     tol_fit = fit_tolerance(limits, tolerance)
     found = reshape_curved(sm.curve, raw, sm.stop_u, sm.seg_feed, limits, tol_fit)
     if not found:
@@ -142,12 +140,13 @@ def reshape_curved(curve: PlannedCurve, raw: PlannedCurve, stop_u: np.ndarray, s
     inv_a[cols] = 1.0 / limits.amax[cols]
     n_scan = max(2, int(math.ceil(curve.length / _SCAN)) + 1)
     u = np.linspace(0.0, curve.length, n_scan)
-    kappa, normal = _curvature(curve, u)
+    k = curve.interval_at(u)
+    tangent, d2 = curve.evaluate(u, 2, index=k, lowest=1)
+    kappa, normal = _curvature_of(tangent, d2)
     load = kappa * np.max(np.abs(normal) * inv_a, axis=1)
-    tangent = curve.evaluate(u, 1)[1]
     cap = np.minimum(seg_feed[curve.segment_at(u)], limits.along(tangent)[0])
     bound = np.sqrt(1.0 / np.maximum(load, 1e-300)) < _BOUND * cap
-    on_arc = curve.kind[curve.interval_at(u)] == ARC
+    on_arc = curve.kind[k] == ARC
     stops = np.unique(np.asarray(stop_u, dtype=float))
 
     def arc_turn(ka: int, kb: int) -> float:
@@ -224,7 +223,11 @@ def _pieces(curve: PlannedCurve, u: np.ndarray, bound: np.ndarray, stops: np.nda
 def _curvature(curve: PlannedCurve, u: np.ndarray, within=None) -> tuple[np.ndarray, np.ndarray]:
     """Curvature and unit principal normal at curve parameters u (normal 0 where the curve is straight);
     ``within``: (ka, kb), the intervals u lies in (so a stretch's last point is evaluated on its last interval)."""
-    _, d1, d2 = _evaluate(curve, u, 2, within)
+    return _curvature_of(*_evaluate(curve, u, 2, within)[1:])
+
+
+def _curvature_of(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``_curvature`` from the first and second derivatives."""
     speed = np.linalg.norm(d1, axis=1)
     t = d1 / speed[:, None]
     kvec = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / speed[:, None] ** 2

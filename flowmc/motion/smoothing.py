@@ -58,7 +58,7 @@ from dataclasses import dataclass, fields
 from functools import cached_property
 
 import numpy as np
-from scipy.linalg import solveh_banded
+from scipy.linalg import LinAlgError, get_lapack_funcs
 
 from flowmc.errors import PlanningError
 from flowmc.motion.bsplines import RunKnots
@@ -98,6 +98,8 @@ _PARAM_PASSES = 3  # refits with the data re-parameterised by arc length along t
 #: The penalty's difference stencils: second differences ~ the integral of |p''|^2 (bending; for
 #: acceleration limits), third ~ of |p'''|^2 (the rate of change of curvature; for jerk limits).
 _STENCILS = {2: np.array([1.0, -2.0, 1.0]), 3: np.array([1.0, -3.0, 3.0, -1.0])}
+#: Their products s_p s_q (p = 0 .. q) as columns, by stencil length and q: what d^T d adds to the band's column q.
+_PRODUCTS = {len(s): [(s[:q + 1] * s[q])[:, None] for q in range(len(s))] for s in _STENCILS.values()}
 _ELL = 100.0  # longest smoothing length in knot spans
 _ELL_SEGMENTS = 1.5  # initial smoothing length in programmed segment lengths
 _ELL_SEGMENTS_JERK = 2.2  # ... for jerk-limited fits: chord ripple in the curvature's slope costs speed as v^3
@@ -142,6 +144,19 @@ class Smoothed:
     deviation: float
     blend_u: np.ndarray
     stopped: Smoothed | None = None
+
+
+_PBSV = get_lapack_funcs("pbsv", dtype=np.float64)
+
+
+def _solved(band: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """x with A x = rhs, A symmetric positive definite in upper band form ``band``: LAPACK's pbsv, as
+    scipy.linalg.solveh_banded calls it (the same numbers), without its argument checks (about 5 us of each
+    solve, of which a fit makes one an iteration)."""
+    _, x, info = _PBSV(band, rhs, lower=0, overwrite_ab=1, overwrite_b=1)
+    if info:
+        raise LinAlgError(f"pbsv failed (info {info}): not positive definite")
+    return x
 
 
 # ---------------------------------------------------------------- the programmed path as a curve
@@ -409,10 +424,48 @@ class _Selection:
         return self.fit.rhs_data[self.cps]
 
     @cached_property
-    def band_free(self) -> list[np.ndarray]:
-        """Per diagonal k of the band: whether both its control points are free."""
-        free = ~self.fixed
-        return [free[:len(free) - k] & free[k:] for k in range(4)]
+    def data_band(self) -> np.ndarray:
+        """The data part of the normal equations in upper band form (4, cps): entry (i, i + k) in row 3 - k,
+        column i + k; nothing left of the band (every iteration adds its penalty to a copy)."""
+        total = len(self.cps)
+        band = np.zeros((4, total))
+        for k, d in enumerate(self.fit.data_diag):
+            band[3 - k, k:] = d[self.cps[:total - k]]
+        return band
+
+    @cached_property
+    def fixed_terms(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What moving the fixed control points to the right-hand side changes: only the free control points
+        within the band of a fixed one (every other term is 0 times an entry, which leaves it as it is). Those
+        rows, their terms' band entries (flat indices into the band, term by row) and fixed positions (term, row,
+        axis), each row's terms in the order the whole product subtracts them (k = 1, 2, 3, above the diagonal
+        first; a row with fewer ends on the empty corner band[0, 0] times 0), and their right-hand sides."""
+        fixed, total = self.fixed, len(self.cps)
+        found = []  # (row, band entry, fixed neighbour) of every such term, in order
+        for k in range(1, 4):
+            for way in (k, -k):
+                i = np.arange(max(0, -way), min(total, total - way))
+                i = i[~fixed[i] & fixed[i + way]]
+                found.append((i, (3 - k) * total + np.maximum(i, i + way), i + way))
+        row, entry, nb = (np.concatenate(col) for col in zip(*found))
+        order = np.argsort(row, kind="stable")  # each row's terms stay in order
+        row, entry, nb = row[order], entry[order], nb[order]
+        rows, first, count = np.unique(row, return_index=True, return_counts=True)
+        slot = np.arange(len(row)) - np.repeat(first, count)
+        place = np.repeat(np.arange(len(rows)), count)
+        at = np.zeros((int(count.max(initial=0)), len(rows)), dtype=np.intp)
+        x = np.zeros((*at.shape, 3))
+        at[slot, place], x[slot, place] = entry, self.fixed_x[nb]
+        return rows, at, x, self.rhs_data[rows]
+
+    @cached_property
+    def band_free(self) -> np.ndarray:
+        """Whether both control points of each entry of the band are free, as the band's 1.0 and 0.0."""
+        free, total = ~self.fixed, len(self.cps)
+        band = np.zeros((4, total))
+        for k in range(4):
+            band[3 - k, k:] = free[:total - k] & free[k:]
+        return band
 
 
 class _RunFitter:
@@ -537,14 +590,16 @@ class _RunFitter:
 
     def _normal_data(self) -> tuple[list[np.ndarray], np.ndarray]:
         """The data part of the normal equations, B^T B (its four upper diagonals) and B^T q, B the design
-        matrix: each entry summed over the data rows in order, from zero, as a sparse product sums it."""
+        matrix: each entry summed over the data rows in order, from zero, as a sparse product sums it. The
+        rows' first control points rise with the rows, so an entry's terms come in the rows' order also when
+        taken a (the row's place) by a, last a first: each a's terms are whole rows of b (no transposed copy)."""
         b, cp, total = self.design_b, self.design_cp, self.total
         diag = []
         for k in range(4):  # row i adds b[a, i] b[a + k, i] to diagonal k at cp[a, i], a = 0 .. 3 - k
-            w = (b[:4 - k] * b[k:]).T.ravel()
-            diag.append(np.bincount(cp[:4 - k].T.ravel(), weights=w, minlength=total)[:total - k])
-        at = cp.T.ravel()
-        rhs = np.stack([np.bincount(at, weights=(b * self.q[:, j]).T.ravel(), minlength=total)
+            w = (b[:4 - k] * b[k:])[::-1].ravel()
+            diag.append(np.bincount(cp[:4 - k][::-1].ravel(), weights=w, minlength=total)[:total - k])
+        at = cp[::-1].ravel()
+        rhs = np.stack([np.bincount(at, weights=(b * self.q[:, j])[::-1].ravel(), minlength=total)
                         for j in range(3)], axis=1)
         return diag, rhs
 
@@ -587,38 +642,35 @@ class _RunFitter:
         return out
 
     def _solve(self, sel: _Selection) -> np.ndarray:
-        """The banded normal equations (upper form for solveh_banded) of the runs ``sel`` (their control points
-        ``sel.cps``, whole runs, ascending, and penalty rows ``sel.rows``), assembled directly: the data part's
-        four diagonals plus each penalty row's w * d^T d, d its difference stencil on its control points. Runs
-        share no entry (their end control points are fixed), so any set of them is solved on its own."""
-        cps, rows, fixed, first = sel.cps, sel.rows, sel.fixed, sel.row_cp
-        total = len(cps)
-        w_at = np.zeros(total)  # each penalty row's weight at its first control point, zero between runs
-        w_at[first] = self.mu[rows] * self.scale[rows]
-        diag = [d[cps[:total - k]] for k, d in enumerate(self.data_diag)]
-        stencils = [(self.stencil, w_at)]
+        """The banded normal equations (upper band form, LAPACK's pbsv) of the runs ``sel`` (their control points
+        ``sel.cps``, whole runs, ascending, and penalty rows ``sel.rows``), assembled directly: the data part
+        plus each penalty row's w * d^T d, d its difference stencil on its control points. Runs share no entry
+        (their end control points are fixed), so any set of them is solved on its own."""
+        fixed = sel.fixed
+        band = sel.data_band.copy()
+        self._add_penalty(band, self.stencil, self.mu, sel)
         if self.bend:
-            w_bend = np.zeros(total)
-            w_bend[first] = self.mu_bend[rows] * self.scale[rows]
-            stencils.append((_STENCILS[2], w_bend))
-        for stencil, w in stencils:
-            for p_ in range(len(stencil)):  # row c adds to (c + p_, c + q_); the zeros between runs add nothing
-                for q_ in range(p_, len(stencil)):
-                    k = q_ - p_
-                    diag[k][p_:] += stencil[p_] * stencil[q_] * w[:total - k - p_]
-        # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed
-        x = sel.fixed_x
-        rhs = sel.rhs_data - diag[0][:, None] * x
-        for k in range(1, 4):
-            d = diag[k][:, None]
-            rhs[:-k] -= d * x[k:]
-            rhs[k:] -= d * x[:-k]
-        ab = np.zeros((4, total))
-        for k, free in enumerate(sel.band_free):
-            ab[3 - k, k:] = diag[k] * free
-        ab[3, fixed] = 1.0
+            self._add_penalty(band, _STENCILS[2], self.mu_bend, sel)
+        # move the fixed control points to the right-hand side: rhs -= A[:, fixed] c_fixed (``fixed_terms``)
+        rows, at, x, rhs_rows = sel.fixed_terms
+        moved = rhs_rows.copy()
+        for entry, x_term in zip(band.ravel().take(at), x):
+            moved -= entry[:, None] * x_term
+        rhs = sel.rhs_data.copy()
+        rhs[rows] = moved
+        band *= sel.band_free
+        band[3, fixed] = 1.0
         rhs[fixed] = sel.fixed_values
-        return solveh_banded(ab, rhs, check_finite=False)
+        return _solved(band, rhs)
+
+    def _add_penalty(self, band: np.ndarray, stencil: np.ndarray, mu: np.ndarray, sel: _Selection) -> None:
+        """Add each penalty row's weight mu * scale times d^T d (d ``stencil`` on the row's control points) to
+        ``band``: entry (c + p, c + q) gets s_p s_q w_c, all entries of the stencil's column q at once, so each
+        entry's terms come in order of p. The weights sit at each row's first control point, zero between runs."""
+        w = np.zeros(band.shape[1])
+        w[sel.row_cp] = mu[sel.rows] * self.scale[sel.rows]
+        for q, products in enumerate(_PRODUCTS[len(stencil)]):  # entries (c + p, c + q), p = 0 .. q: rows 3 - q .. 3
+            band[3 - q:, q:] += products * w[:len(w) - q]
 
     def _iterate(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Solve, then smooth less wherever the tolerance is not met and more wherever it is met with room to
@@ -1016,17 +1068,19 @@ def fit_tolerance(limits: PathLimits, tolerance: float) -> float:
     return _TOL_SHARE * left
 
 
-def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity: int = 1) -> Smoothed:
+def smooth_path(path: Path, limits: PathLimits, tolerance: float, *, continuity: int = 1,
+                as_curve: tuple[PlannedCurve, _Elements] | None = None) -> Smoothed:
     """Smooth ``path`` within ``tolerance`` (mm): tangent-continuous joins (``continuity=1``, enough for
     acceleration-limited profiles) or curvature-continuous ones (``continuity=2``, for jerk limits; lone
     sharp line-line corners then get ``_corner_jerk_blends``, and ``Smoothed.stopped`` stops at them).
+    ``as_curve``: ``raw_curve(path)``, where the caller needs it too.
 
     Raises PlanningError naming the segment for gaps, bad feeds, or motion on axes the machine lacks.
     """
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise PlanningError(f"tolerance must be > 0 mm, got {tolerance}", where="planner")
     seg_feed = checked_feeds(path)
-    raw, el = raw_curve(path)
+    raw, el = raw_curve(path) if as_curve is None else as_curve
     g2 = continuity >= 2
     period = limits.period
     v_big = float(np.max(limits.vmax[list(limits.cols)]))

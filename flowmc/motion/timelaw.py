@@ -94,7 +94,9 @@ _REACH_ROUNDS = 2
 _WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): the fastest is kept
 _SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over half the budget less than this
 _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
+_NEWTON_CHUNK = 2048  # samples a Newton pass on arc length works on together (12 values a sample in its temporaries)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
+_NEWTON_NODES = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [0, 1], and 1 itself
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,8 +126,9 @@ class TimeLaw:
         """Curve parameter at arc lengths s: cubic Hermite on each grid interval (ds/du matched at both ends;
         exact on lines and arcs, where ds/du is constant), then, on the other intervals only, two Newton steps
         on the arc length from the interval's start (3-point Gauss-Legendre, exact to rounding over intervals
-        this short). Worked out CHUNK samples at a time past CHUNKED: the same numbers, with every temporary in
-        cache (a third quicker for 369k samples)."""
+        this short). Worked out CHUNK samples at a time past CHUNKED, and the Newton steps _NEWTON_CHUNK at a
+        time: the same numbers, with every temporary in cache (a third quicker for 369k samples) and none so
+        large that it takes fresh memory from the system (ellipse200: 470 page faults a plan, none now; 1.2 -> 0.5 ms)."""
         s = np.asarray(s, dtype=float).reshape(-1)
         if len(s) > CHUNKED:
             return np.concatenate([self.u_at(s[i:i + CHUNK], curve) for i in range(0, len(s), CHUNK)])
@@ -146,8 +149,9 @@ class TimeLaw:
             index = curve.interval_at(0.5 * (u0 + u1))
         # lines and arcs have a constant ds/du, where the Hermite cubic is the exact (linear) map already
         curved = np.flatnonzero(~curve.constant_speed()[index])
-        if len(curved):
-            u[curved] = self._newton(s[curved], u[curved], k[curved], index[curved], curve)
+        for i in range(0, len(curved), _NEWTON_CHUNK):
+            c = curved[i:i + _NEWTON_CHUNK]
+            u[c] = self._newton(s[c], u[c], k[c], index[c], curve)
         return u
 
     def _newton(self, s: np.ndarray, u: np.ndarray, k: np.ndarray, index: np.ndarray,
@@ -158,10 +162,12 @@ class TimeLaw:
         by_power = curve.by_power
         c1, c2, c3 = (f * np.take(by_power[m], index, axis=1)[:, None, :] for m, f in ((1, 1.0), (2, 2.0), (3, 3.0)))
         start = curve.u0[index]
-        nodes_x = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [u0, u], and u itself
         for _ in range(2):
-            x = (u0 - start) + (u - u0) * nodes_x  # (4, n) from the row's start
-            d1 = c1 + x * (c2 + x * c3)
+            x = (u0 - start) + (u - u0) * _NEWTON_NODES  # (4, n) from the row's start
+            d1 = x * c3  # c1 + x (c2 + x c3), in place: one (3, 4, n) array
+            d1 += c2
+            d1 *= x
+            d1 += c1
             speed = np.sqrt(np.einsum("ijk,ijk->jk", d1, d1))
             err = self.s[k] + 0.5 * (u - u0) * (_GL3_W @ speed[:-1]) - s
             u = np.clip(u - err / np.maximum(speed[-1], 1e-12), u0, u1)
@@ -188,16 +194,16 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
     u = np.unique(np.concatenate(parts))
     # where the curve turns or its curvature changes quickly, halve the intervals until it does not; lines
     # never need it, and an interval that passed keeps passing, so each round checks only the new halves,
-    # whose ends but the middle were evaluated already (a half lies in its parent's curve interval k)
+    # whose ends but the middle were evaluated already (a half lies in its parent's curve interval k): ``ends``
+    # holds u, curvature and unit tangent (5 rows) at the start and end of each interval checked
     at = np.flatnonzero(~line[curve.interval_at(0.5 * (u[:-1] + u[1:]))])
-    a, b = u[at], u[at + 1]
-    k = curve.interval_at(0.5 * (a + b))
-    tan, kap = _turning(curve, np.r_[a, b], np.r_[k, k])
-    tan_a, tan_b, kap_a, kap_b = tan[:, :len(at)], tan[:, len(at):], kap[:len(at)], kap[len(at):]
+    k = curve.interval_at(0.5 * (u[at] + u[at + 1]))
+    ab = np.r_[u[at], u[at + 1]]
+    tan, kap = _turning(curve, ab, np.r_[k, k])
+    ends = np.concatenate([ab[None], kap[None], tan]).reshape(5, 2, len(at)).transpose(1, 0, 2)
+    mids = [u]  # every middle lies between two nodes: sorted in once at the end
     for _ in range(_REFINE):
-        if not len(at):
-            break
-        d = tan_b - tan_a
+        (a, b), (kap_a, kap_b), d = ends[:, 0], ends[:, 1], ends[1, 2:] - ends[0, 2:]
         turn = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
         change = np.abs(kap_b - kap_a) > _KAPPA_CHANGE * np.maximum(kap_b, kap_a)
         # arcs (even curvature) keep the coarse step: fitted cubics and lone corners' parabolas take the fine one
@@ -207,13 +213,10 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
             break
         mid, k = 0.5 * (a[split] + b[split]), np.repeat(k[split], 2)
         tan_m, kap_m = _turning(curve, mid, k[::2])
-        u = np.insert(u, at[split] + 1, mid)
-        first = at[split] + np.arange(len(split))  # where each split interval's start is now
-        at = (first[:, None] + np.arange(2)).ravel()
-        a, b = _halves(a[split], mid, b[split])
-        kap_a, kap_b = _halves(kap_a[split], kap_m, kap_b[split])
-        tan_a, tan_b = _halves(tan_a[:, split], tan_m, tan_b[:, split])
-    at = np.flatnonzero(np.isin(u, stop_u))
+        mids.append(mid)
+        ends = _halved(ends[:, :, split], np.concatenate([mid[None], kap_m[None], tan_m]))
+    u = np.sort(np.concatenate(mids))
+    at = np.unique(np.searchsorted(u, stop_u))  # the stops' nodes (every stop is one)
     few = np.flatnonzero(np.diff(at) < 3)
     if len(few):
         a, b = u[at[few]], u[at[few + 1]]
@@ -230,11 +233,14 @@ def _turning(curve: PlannedCurve, u: np.ndarray, index: np.ndarray) -> tuple[np.
     return d1 / sp, np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / sp**3
 
 
-def _halves(lo: np.ndarray, mid: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Values at the ends of intervals split at their middles (along the last axis): at the halves' ends, in order."""
-    def pair(x, y):
-        return np.stack([x, y], axis=-1).reshape(*x.shape[:-1], -1)
-    return pair(lo, mid), pair(mid, hi)
+def _halved(ends: np.ndarray, mids: np.ndarray) -> np.ndarray:
+    """Values at the ends of intervals (start and end, quantity, interval) split at their middles, where they are
+    ``mids`` (quantity, interval): at the halves' ends, in order along the intervals (each interval's ends
+    twice, then the middle's in between, in one array rather than one pair of them a quantity)."""
+    out = np.repeat(ends, 2, axis=2)
+    out[1, :, 0::2] = mids  # the first half ends at the middle
+    out[0, :, 1::2] = mids  # the second starts there
+    return out
 
 
 def _ranks(reps: np.ndarray) -> np.ndarray:
@@ -471,17 +477,20 @@ class _Budgets:
             moving = t > 0
             inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
             alpha = np.where(moving, self.amax[i] * inv_t, np.inf)
+            # each point's h c and h alpha once for both ways (speeding up's h c is slowing down's negated: the
+            # same products, rounded alike)
+            hc_down = [h * kt[q] * inv_t[q] for q in range(3)]
+            h_alpha = [h * alpha[q] for q in range(3)]
             # slowing down y is the earlier end's speed^2 and kt > 0 helps; speeding up y is the later end's
-            for (a, b), sign, ends in ((down, 1.0, (1.0, 0.0)), (up, -1.0, (0.0, 1.0))):
-                for q in range(3):
-                    hc = h * sign * kt[q] * inv_t[q]
+            for (a, b), hcs, ends in ((down, hc_down, (1.0, 0.0)), (up, [-hc for hc in hc_down], (0.0, 1.0))):
+                for q, hc in enumerate(hcs):
                     w = (hc < 0).astype(float)  # the middle's: hurting at the larger speed, helping at the smaller
                     if q != 1:
                         own = ends[q // 2]
                         w = np.where((hc * own < 0.5) & (hc * (own - 1.0) < 0.5), own, w)
                     den = 1.0 - hc * w
                     a.append((1.0 + hc * (1.0 - w)) / den)
-                    b.append(h * alpha[q] / den)
+                    b.append(h_alpha[q] / den)
         self._maps = ds, (down, up)
         return down, up
 
