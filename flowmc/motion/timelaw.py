@@ -823,23 +823,57 @@ def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, r
     depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
     arrive = ph.start[0::2]
     times = np.concatenate([depart[:-1], arrive[1:] + window])
-    filtered = (_integral_leaving_first(ph, times, m) - ph.integral(times - window)).astype(float) / window
-    lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
-    hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
+    lo, hi = _intervals_reached(ph, times, m, window, s_nodes)
     k = np.arange(m)
     lo, hi = np.minimum(lo, k), np.maximum(hi, k)
     windows = Windows(lo, hi, m)
     return lo, hi, windows, windows.min(cap)
 
 
-def _integral_leaving_first(ph: _Phases, times: np.ndarray, m: int) -> np.ndarray:
-    """``ph.integral(times)``, the first m of which are the times the motion leaves nodes 0..m-1: the starts of
+def _intervals_reached(ph: _Phases, times: np.ndarray, m: int, window: float, s_nodes: np.ndarray) -> tuple:
+    """The intervals the filtered motion is on at ``times`` (the first m from the left, the rest from the right).
+
+    The filtered positions are averages of two long double integrals (``_filtered``), but only the nodes they
+    fall between matter: worked out in doubles, they are within ``delta`` of the long doubles' (each double
+    rounds the integrals, at most ``scale``, by 2^-53 of them, and the average by 2^-53 of it: a few times
+    that, taken 100 times over), so only those within ``delta`` of a node are worked out again as before.
+    Long double arithmetic over 3m times (3D_Chips: 15 MB of fresh arrays a reach) is most of a reach."""
+    rounded = ph.cumulative.astype(float)
+    back, ahead = ph.rough_integral(times - window, rounded), ph.rough_integral(times[m:], rounded)
+    f = np.concatenate([rounded[1:2 * m:2], ahead])  # leaving node k: the whole phases before it
+    f -= back
+    f /= window
+    scale = max(float(np.max(np.abs(rounded))), float(np.max(np.abs(back))), float(np.max(np.abs(ahead))))
+    delta = 2.0**-46 * (4.0 * scale / window + float(np.max(np.abs(f)))) + 1e-300
+    pad = np.concatenate([[-np.inf], s_nodes, [np.inf]])
+    at = np.concatenate([np.searchsorted(s_nodes, f[:m], side="left"), np.searchsorted(s_nodes, f[m:], side="right")])
+    near = np.flatnonzero(~((pad[at] < f - delta) & (f + delta < pad[at + 1])))  # NaN counts as near
+    if len(near):
+        exact = _filtered(ph, times, m, window, near)
+        first = near < m
+        at[near] = np.where(first, np.searchsorted(s_nodes, exact, side="left"),
+                            np.searchsorted(s_nodes, exact, side="right"))
+    return np.clip(at[:m] - 1, 0, m - 1), np.clip(at[m:] - 1, 0, m - 1)
+
+
+def _filtered(ph: _Phases, times: np.ndarray, m: int, window: float, idx: np.ndarray) -> np.ndarray:
+    """The filtered positions at times[idx] as the long doubles give them (see ``_intervals_reached``)."""
+    return ((_integral_leaving_first(ph, times, m, idx) - ph.integral(times[idx] - window)).astype(float)
+            / window)
+
+
+def _integral_leaving_first(ph: _Phases, times: np.ndarray, m: int, idx: np.ndarray) -> np.ndarray:
+    """``ph.integral(times[idx])``, the first m of ``times`` the times the motion leaves nodes 0..m-1: the starts of
     phases 1, 3, ..., where no phase after one of them lasts no time at all. There the integral is the whole phases'
     before, found without a search and with nothing of the phase's own to add (that part is 0)."""
     leaving = np.arange(1, 2 * m, 2)
     if not (np.array_equal(times[:m], ph.start[leaving]) and np.all(ph.start[leaving + 1] > ph.start[leaving])):
-        return ph.integral(times)
-    return np.concatenate([ph.cumulative[leaving], ph.integral(times[m:])])
+        return ph.integral(times[idx])
+    first = idx < m
+    out = np.empty(len(idx), dtype=np.longdouble)
+    out[first] = ph.cumulative[leaving[idx[first]]]
+    out[~first] = ph.integral(times[idx[~first]])
+    return out
 
 
 def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
@@ -942,26 +976,50 @@ class _Phases:
 
     @cached_property
     def cumulative(self) -> np.ndarray:
-        """The integral of s over every whole phase before each, as long doubles."""
+        """The integral of s over every whole phase before each, as long doubles (summed in place: one array)."""
         part = self.dur * (self.s0 + self.dur * (0.5 * self.v0 + self.dur * self.a / 6.0))
-        return np.concatenate([[0.0], np.cumsum(part.astype(np.longdouble))])
+        cum = np.empty(len(part) + 1, dtype=np.longdouble)
+        cum[0] = 0.0
+        cum[1:] = part
+        np.cumsum(cum[1:], out=cum[1:])
+        return cum
 
     def integral(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Running integral of s over [0, t] (s is s0 before 0 and its end value after the last phase), as
         long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known."""
-        cum = self.cumulative
         k, tau = self.at(t) if where is None else where
-        total = cum[k]
-        total += tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))  # widened exactly, added as long doubles
-        # the parts after the end and before 0, added only where they are not zero (adding a zero changes nothing)
+        total = self.cumulative[k]
+        total += self._within(k, tau)  # widened exactly, added as long doubles
+        for at, part in self._outside(t):
+            total[at] += part.astype(np.longdouble)
+        return total
+
+    def rough_integral(self, t: np.ndarray, rounded: np.ndarray) -> np.ndarray:
+        """``integral`` in doubles, from ``cumulative`` rounded to doubles (``rounded``): each of its two or three
+        additions rounds once more than the long doubles', by at most 2^-53 of the larger sum."""
+        k, tau = self.at(t)
+        total = rounded[k]
+        total += self._within(k, tau)
+        for at, part in self._outside(t):
+            total[at] += part
+        return total
+
+    def _within(self, k: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """The integral of s over the first tau of phase k."""
+        return tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))
+
+    def _outside(self, t: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The integral's parts after the end and before 0, (where, part), only where they are not zero (adding
+        a zero changes nothing)."""
         end_t = self.start[-1] + self.dur[-1]
         late, early = np.flatnonzero(t > end_t), np.flatnonzero(t < 0.0)
+        parts = []
         if len(late):
             s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
-            total[late] += ((t[late] - end_t) * s_end).astype(np.longdouble)
+            parts.append((late, (t[late] - end_t) * s_end))
         if len(early):
-            total[early] += (t[early] * self.s0[0]).astype(np.longdouble)
-        return total
+            parts.append((early, t[early] * self.s0[0]))
+        return parts
 
 
 def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, owner: np.ndarray, window: float,
