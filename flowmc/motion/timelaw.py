@@ -510,14 +510,14 @@ class _Terms:
         |P3_i|, Tj); None without an axis."""
         if not t:
             return None
-        t = np.array(t)
-        moving = t > 0
-        inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
+        rows = np.array(t)
+        moving = rows > 0
+        inv_t = np.where(moving, 1.0 / np.where(moving, rows, 1.0), 0.0)
         alpha = np.where(moving, amax[:, None] * inv_t, np.inf)
         beta = np.array([kt_up, kt_down]) * inv_t
         if jerk is not None:
             jmax, k, p3, window = jerk
-            jerk = (jmax[:, None], t / window, 3.0 * np.array(k), np.array(p3))
+            jerk = (jmax[:, None], rows / window, 3.0 * np.array(k), np.array(p3))
         return cls(alpha, beta, jerk)
 
     def part(self, at: slice) -> _Terms:
@@ -819,7 +819,7 @@ def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, r
     profile (faster at every s) gives a wider reach: the window's average lies further back and ahead."""
     m = len(ds)
     s_nodes = np.concatenate([[0.0], np.cumsum(ds)])
-    ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, np.full(m + 1, -1))
+    ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, None)
     depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
     arrive = ph.start[0::2]
     times = np.concatenate([depart[:-1], arrive[1:] + window])
@@ -963,7 +963,7 @@ class _Phases:
     s0: np.ndarray
     v0: np.ndarray
     a: np.ndarray
-    owner: np.ndarray  # dwell segment a wait belongs to, -1 otherwise
+    owner: np.ndarray | None  # dwell segment a wait belongs to, -1 otherwise; None where no one asks (``_reach``)
 
     def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         k = np.clip(search_right(self.start, t) - 1, 0, len(self.start) - 1)
@@ -1051,18 +1051,21 @@ def _phases(law: TimeLaw) -> _Phases:
     return _phases_of(law.s, law.y, law.accel, wait, owner)
 
 
-def _phases_of(s: np.ndarray, y: np.ndarray, accel: np.ndarray, wait: np.ndarray, owner: np.ndarray) -> _Phases:
-    """Phases of a profile y at nodes s, waiting ``wait`` at each node (dwell segment ``owner`` or -1)."""
+def _phases_of(s: np.ndarray, y: np.ndarray, accel: np.ndarray, wait: np.ndarray, owner: np.ndarray | None) -> _Phases:
+    """Phases of a profile y at nodes s, waiting ``wait`` at each node (dwell segment ``owner`` or -1; None: not
+    needed)."""
     v = np.sqrt(np.maximum(y, 0.0))
     dt = 2.0 * np.diff(s) / np.maximum(v[:-1] + v[1:], 1e-300)
     n = len(s)
-    dur, s0, v0, acc, own = np.empty(2 * n - 1), np.empty(2 * n - 1), np.zeros(2 * n - 1), np.zeros(2 * n - 1), \
-        np.full(2 * n - 1, -1)
+    dur, s0, v0, acc = np.empty(2 * n - 1), np.empty(2 * n - 1), np.zeros(2 * n - 1), np.zeros(2 * n - 1)
     dur[0::2], dur[1::2] = wait, dt
     s0[0::2], s0[1::2] = s, s[:-1]
     v0[1::2] = v[:-1]
     acc[1::2] = accel
-    own[0::2] = owner
+    own = None
+    if owner is not None:
+        own = np.full(2 * n - 1, -1)
+        own[0::2] = owner
     start = np.empty(2 * n - 1)
     start[0] = 0.0
     np.cumsum(dur[:-1], out=start[1:])
@@ -1096,16 +1099,18 @@ def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray
     if len(ts) > CHUNKED:
         parts = [arc_length_at(law, ph, ts[i:i + CHUNK]) for i in range(0, len(ts), CHUNK)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    owner = ph.owner
+    assert owner is not None, "a law's phases (``_phases``)"
     if law.window <= 0:
         where = ph.at(ts)
-        return ph.s(ts, where), ph.owner[where[0]]
+        return ph.s(ts, where), owner[where[0]]
     tj = law.window
     at0, at1 = ph.at(ts - tj), ph.at(ts)
     s = ((ph.integral(ts, at1) - ph.integral(ts - tj, at0)) / np.longdouble(tj)).astype(float)
     k0, k1 = at0[0], at1[0]
     resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
     s = np.where(resting, ph.s0[k1], s)
-    seg = np.where(resting & (ph.owner[k1] >= 0), ph.owner[k1], -1)
+    seg = np.where(resting & (owner[k1] >= 0), owner[k1], -1)
     return s, seg
 
 
