@@ -1110,8 +1110,9 @@ def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray
         where = ph.at(ts)
         return ph.s(ts, where), owner[where[0]]
     tj = law.window
-    at0, at1 = ph.at(ts - tj), ph.at(ts)
-    s = ((ph.integral(ts, at1) - ph.integral(ts - tj, at0)) / np.longdouble(tj)).astype(float)
+    back = ts - tj
+    at0, at1 = ph.at(back), ph.at(ts)
+    s = ((ph.integral(ts, at1) - ph.integral(back, at0)) / np.longdouble(tj)).astype(float)
     k0, k1 = at0[0], at1[0]
     resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
     s = np.where(resting, ph.s0[k1], s)
