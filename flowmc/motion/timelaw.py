@@ -95,7 +95,8 @@ _WINDOWS = (1.0, 0.5)  # filter lengths tried, in shares of max(amax / jmax): th
 _SHORT_WINDOW_USE = 0.2  # ... a shorter one only where the motion uses over half the budget less than this
 _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling and rounding margin)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
-_PART = 32768  # intervals the budgets work out together: their temporaries, every axis's rows, stay in cache
+_PART = 32768  # intervals the budgets work out together (temporaries in cache; 3D_Chips' budgets 56 ms, at 16384
+# 61, at 4096 81: each part's numpy calls cost more than the cache saves)
 _FLOOR = np.full((2, _PART), 1e-9)  # the least budget
 
 
@@ -417,7 +418,15 @@ class _Budgets:
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
-        self.geo, self.amax = g, lim.amax
+        self.geo, self.amax, self.lim, self.m = g, lim.amax, lim, m
+        self.window = window
+        self._maps: tuple[np.ndarray, tuple] | None = None  # (ds, maps(ds)): the planner asks again per tight range
+
+    @cached_property
+    def terms(self) -> _Terms | None:
+        """The terms of every axis that moves or turns anywhere (a column the machine lacks is all zeros), each at
+        its worst over an interval's three points; worked out on the first call (trapezoid laws take ``maps``)."""
+        g, m, lim = self.geo, self.m, self.lim
 
         def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,), column by column
             return [np.max(a[:, i].reshape(3, m), axis=0) for i in range(3)]
@@ -425,18 +434,15 @@ class _Budgets:
         t, k = worst(g.t), worst(g.k)
         p3 = None if g.p3 is None else worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
-        self.window = window
-        self._maps: tuple[np.ndarray, tuple] | None = None  # (ds, maps(ds)): the planner asks again per tight range
-        # the terms of every axis that moves or turns anywhere (a column the machine lacks is all zeros)
         rows = [i for i in range(3) if t[i].any() or k[i].any() or (p3 is not None and p3[i].any())]
-        self.terms = _Terms.of([t[i] for i in rows], [kt_up[i] for i in rows], [kt_down[i] for i in rows],
-                               lim.amax[rows], None if window <= 0 or p3 is None else
-                               (_JERK_SHARE * lim.jmax[rows], [k[i] for i in rows], [p3[i] for i in rows], window))
+        return _Terms.of([t[i] for i in rows], [kt_up[i] for i in rows], [kt_down[i] for i in rows],
+                         lim.amax[rows], None if self.window <= 0 or p3 is None else
+                         (_JERK_SHARE * lim.jmax[rows], [k[i] for i in rows], [p3[i] for i in rows], self.window))
 
     def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Budgets at speed^2 ``level`` (normal terms that help counted as at rest); where ``swing``, safe for
         any swing of the acceleration (a jump of up to twice the budget within Tj), elsewhere for jumps of up
-        to the budget. Worked out CHUNK intervals at a time past CHUNKED (``_parts``)."""
+        to the budget. Worked out _PART intervals at a time (``_parts``)."""
         n = len(level)
         out = np.empty((2, n))
         if self.terms is None:
@@ -491,7 +497,7 @@ class _Budgets:
 
     @cached_property
     def _parts(self) -> list[tuple[_Terms, slice]]:
-        """These budgets' terms over every CHUNK intervals: the same terms (views), so the same numbers, while every
+        """These budgets' terms over every _PART intervals: the same terms (views), so the same numbers, while every
         temporary of a part stays in the processor's cache (one pass over the whole arrays per term is
         bound by memory: about a third slower for 3D_Chips' 152,000 intervals)."""
         assert self.terms is not None
