@@ -508,8 +508,8 @@ class _Budgets:
 @dataclass
 class _Terms:
     """``_Budgets``' terms, one row per axis that moves or turns, stacked (axis, interval): each step of the
-    budgets is one numpy call for every axis (a third of the calls, on 3D_Chips' parts of CHUNK intervals
-    about as costly as their arithmetic)."""
+    budgets is one numpy call for every axis (a third of the calls, on parts of _PART intervals about as costly
+    as their arithmetic)."""
 
     alpha: np.ndarray  # (r, m): amax_i / |T_i|, inf where the axis does not move
     beta: np.ndarray  # (2, r, m): what the normal term takes per speed^2 from a speed-up, from a slow-down
