@@ -97,6 +97,9 @@ _JERK_SHARE = 0.99  # jerk-limited profiles aim at this share of jmax (sampling 
 _NEWTON_CHUNK = 2048  # samples a Newton pass on arc length works on together (12 values a sample in its temporaries)
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)
 _NEWTON_NODES = np.r_[0.5 * (1.0 + _GL3_X), 1.0][:, None]  # the Gauss-Legendre nodes on [0, 1], and 1 itself
+_PART = 32768  # intervals the budgets work out together (temporaries in cache; 3D_Chips' budgets 56 ms, at 16384
+# 61, at 4096 81: each part's numpy calls cost more than the cache saves)
+_FLOOR = np.full((2, _PART), 1e-9)  # the least budget
 
 
 @dataclass(frozen=True, eq=False)
@@ -251,18 +254,24 @@ def _ranks(reps: np.ndarray) -> np.ndarray:
 
 def _scan(cap_node: np.ndarray, ds: np.ndarray, budget: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """Fastest y at the nodes with y <= cap_node, y_{k+1} - y_k <= 2 up_k ds_k and y_k - y_{k+1} <= 2 down_k ds_k
-    (``budget`` = (up, down))."""
+    (``budget`` = (up, down)).
+
+    The running minima take np.fmin, 14 % quicker than np.minimum, where no cap is NaN: the two differ only at
+    NaNs and in which of two equal zeros they give, and no -0 arises (the sums are finite and >= +0, and x - y is
+    -0 only for x = -0)."""
     up, down = budget
+    least = np.minimum if np.isnan(cap_node).any() else np.fmin
     c = np.zeros(len(ds) + 1)  # the sums from the first node, every step worked out in place (no temporaries)
     step = c[1:]
     np.cumsum(np.multiply(np.multiply(2.0, down, out=step), ds, out=step), out=step)
     back = np.add(cap_node, c)[::-1]
-    np.minimum.accumulate(back, out=back)
+    least.accumulate(back, out=back)
     back = back[::-1]
     back -= c
-    np.cumsum(np.multiply(np.multiply(2.0, up, out=step), ds, out=step), out=step)
+    if not (up is down or np.array_equal(up, down)):  # the same sums otherwise (lines+arcs: every scan)
+        np.cumsum(np.multiply(np.multiply(2.0, up, out=step), ds, out=step), out=step)
     back -= c
-    np.minimum.accumulate(back, out=back)
+    least.accumulate(back, out=back)
     return np.add(back, c, out=back)
 
 
@@ -415,7 +424,15 @@ class _Budgets:
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
-        self.geo, self.amax = g, lim.amax
+        self.geo, self.amax, self.lim, self.m = g, lim.amax, lim, m
+        self.window = window
+        self._maps: tuple[np.ndarray, tuple] | None = None  # (ds, maps(ds)): the planner asks again per tight range
+
+    @cached_property
+    def terms(self) -> _Terms | None:
+        """The terms of every axis that moves or turns anywhere (a column the machine lacks is all zeros), each at
+        its worst over an interval's three points; worked out on the first call (trapezoid laws take ``maps``)."""
+        g, m, lim = self.geo, self.m, self.lim
 
         def worst(a):  # (3m, 3) -> per axis, the largest over the interval's three points (m,), column by column
             return [np.max(a[:, i].reshape(3, m), axis=0) for i in range(3)]
@@ -423,32 +440,25 @@ class _Budgets:
         t, k = worst(g.t), worst(g.k)
         p3 = None if g.p3 is None else worst(g.p3)
         kt_up, kt_down = worst(np.maximum(g.kt, 0.0)), worst(np.maximum(-g.kt, 0.0))
-        self.window = window
-        self._maps: tuple[np.ndarray, tuple] | None = None  # (ds, maps(ds)): the planner asks again per tight range
-        # one row of terms per axis that moves or turns anywhere (a column the machine lacks is all zeros)
-        self.axes = []
-        for i in range(3):
-            if not (t[i].any() or k[i].any() or (p3 is not None and p3[i].any())):
-                continue
-            moving = t[i] > 0
-            inv_t = np.where(moving, 1.0 / np.where(moving, t[i], 1.0), 0.0)
-            row = {"alpha": np.where(moving, lim.amax[i] * inv_t, np.inf),
-                   "beta_up": kt_up[i] * inv_t, "beta_down": kt_down[i] * inv_t}
-            if window > 0 and p3 is not None:
-                row.update(jmax=_JERK_SHARE * lim.jmax[i], t_win=t[i] / window, k3=3.0 * k[i], p3=p3[i])
-            self.axes.append(row)
+        rows = [i for i in range(3) if t[i].any() or k[i].any() or (p3 is not None and p3[i].any())]
+        return _Terms.of([t[i] for i in rows], [kt_up[i] for i in rows], [kt_down[i] for i in rows],
+                         lim.amax[rows], None if self.window <= 0 or p3 is None else
+                         (_JERK_SHARE * lim.jmax[rows], [k[i] for i in rows], [p3[i] for i in rows], self.window))
 
     def __call__(self, level: np.ndarray, swing: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Budgets at speed^2 ``level`` (normal terms that help counted as at rest); where ``swing``, safe for
         any swing of the acceleration (a jump of up to twice the budget within Tj), elsewhere for jumps of up
-        to the budget. Worked out CHUNK intervals at a time past CHUNKED (``_parts``)."""
+        to the budget. Worked out _PART intervals at a time (``_parts``)."""
         n = len(level)
-        if n <= CHUNKED or not self.axes:
-            return self._budgets(level, swing)
-        up, down = np.empty(n), np.empty(n)
-        for part, at in self._parts:
-            up[at], down[at] = part._budgets(level[at], None if swing is None else swing[at])
-        return up, down
+        out = np.empty((2, n))
+        if self.terms is None:
+            out.fill(1e12)
+        elif n <= _PART:
+            self.terms.budgets(level, swing, out)
+        else:
+            for part, at in self._parts:
+                part.budgets(level[at], None if swing is None else swing[at], out[:, at])
+        return out[0], out[1]
 
     def maps(self, ds: np.ndarray) -> tuple[tuple[list, list], tuple[list, list]]:
         """Without a jerk limit: per axis and per point of the interval (its start, middle and end, each with its
@@ -495,46 +505,63 @@ class _Budgets:
         return down, up
 
     @cached_property
-    def _parts(self) -> list[tuple[_Budgets, slice]]:
-        """These budgets over every CHUNK intervals: the same terms (views), so the same numbers, while every
+    def _parts(self) -> list[tuple[_Terms, slice]]:
+        """These budgets' terms over every _PART intervals: the same terms (views), so the same numbers, while every
         temporary of a part stays in the processor's cache (one pass over the whole arrays per term is
         bound by memory: about a third slower for 3D_Chips' 152,000 intervals)."""
-        parts = []
-        for start in range(0, len(self.axes[0]["alpha"]), CHUNK):
-            at = slice(start, start + CHUNK)
-            part = object.__new__(type(self))
-            part.window, part.axes = self.window, [{key: v[at] if np.ndim(v) else v for key, v in row.items()}
-                                                  for row in self.axes]
-            parts.append((part, at))
-        return parts
+        assert self.terms is not None
+        return [(self.terms.part(slice(start, start + _PART)), slice(start, start + _PART))
+                for start in range(0, self.terms.alpha.shape[1], _PART)]
 
-    def _budgets(self, level: np.ndarray, swing: np.ndarray | None):
-        """The budgets' arithmetic, into preallocated arrays (each term a pass over arrays that stay in cache)."""
-        y = level
-        n = len(y)
-        up, down, term = np.full(n, np.inf), np.full(n, np.inf), np.empty(n)
+
+@dataclass
+class _Terms:
+    """``_Budgets``' terms, one row per axis that moves or turns, stacked (axis, interval): each step of the
+    budgets is one numpy call for every axis (a third of the calls, on parts of _PART intervals about as costly
+    as their arithmetic)."""
+
+    alpha: np.ndarray  # (r, m): amax_i / |T_i|, inf where the axis does not move
+    beta: np.ndarray  # (2, r, m): what the normal term takes per speed^2 from a speed-up, from a slow-down
+    jerk: tuple | None  # filtered: (share * jmax_i (r, 1), |T_i| / Tj, 3 |K_i|, |P3_i| (r, m) each)
+
+    @classmethod
+    def of(cls, t: list, kt_up: list, kt_down: list, amax: np.ndarray, jerk: tuple | None) -> _Terms | None:
+        """The terms from each axis's worst |T_i|, sign(T_i) K_i either way, amax_i and, filtered, (jmax_i, |K_i|,
+        |P3_i|, Tj); None without an axis."""
+        if not t:
+            return None
+        rows = np.array(t)
+        moving = rows > 0
+        inv_t = np.where(moving, 1.0 / np.where(moving, rows, 1.0), 0.0)
+        alpha = np.where(moving, amax[:, None] * inv_t, np.inf)
+        beta = np.array([kt_up, kt_down]) * inv_t
+        if jerk is not None:
+            jmax, k, p3, window = jerk
+            jerk = (jmax[:, None], rows / window, 3.0 * np.array(k), np.array(p3))
+        return cls(alpha, beta, jerk)
+
+    def part(self, at: slice) -> _Terms:
+        return _Terms(self.alpha[:, at], self.beta[:, :, at],
+                      None if self.jerk is None else (self.jerk[0], *(v[:, at] for v in self.jerk[1:])))
+
+    def budgets(self, y: np.ndarray, swing: np.ndarray | None, out: np.ndarray) -> None:
+        """The budgets' arithmetic into ``out`` (2, n): up and down, each the least of every axis's terms (a
+        minimum is exact, so in any order the same numbers)."""
         with np.errstate(invalid="ignore", divide="ignore"):
-            if self.window > 0:
+            terms = np.multiply(self.beta, y)
+            np.minimum.reduce(np.subtract(self.alpha, terms, out=terms), axis=1, out=out)
+            if self.jerk is not None:
+                jmax, t_win, k3, p3 = self.jerk
                 root = np.sqrt(y)
-                y_root = y * root
-                widen = None if swing is None else 1.0 + swing
-                coeff, jerk = np.empty(n), np.empty(n)
-            for row in self.axes:
-                np.minimum(up, np.subtract(row["alpha"], np.multiply(row["beta_up"], y, out=term), out=term), out=up)
-                np.minimum(down, np.subtract(row["alpha"], np.multiply(row["beta_down"], y, out=term), out=term),
-                           out=down)
-                if self.window > 0:
-                    t_win = row["t_win"] if widen is None else row["t_win"] * widen
-                    np.add(t_win, np.multiply(row["k3"], root, out=coeff), out=coeff)
-                    np.subtract(row["jmax"], np.multiply(row["p3"], y_root, out=term), out=term)
-                    jerk.fill(np.inf)
-                    np.divide(term, coeff, out=jerk, where=coeff > 0)
-                    np.minimum(up, jerk, out=up)
-                    np.minimum(down, jerk, out=down)
-            for b in (up, down):
-                b[~np.isfinite(b)] = 1e12
-                np.maximum(b, 1e-9, out=b)
-        return up, down
+                coeff = np.multiply(k3, root)
+                np.add(t_win if swing is None else t_win * (1.0 + swing), coeff, out=coeff)
+                term = np.multiply(p3, np.multiply(y, root, out=root))
+                np.subtract(jmax, term, out=term)
+                jerk = np.divide(term, coeff, out=term)
+                np.copyto(jerk, np.inf, where=~(coeff > 0))  # as dividing only where coeff > 0, twice as fast
+                np.minimum(out, np.minimum.reduce(jerk, axis=0), out=out)
+            out[~np.isfinite(out)] = 1e12
+            np.maximum(out, _FLOOR[:, :out.shape[1]], out=out)  # an array: three times as fast as the scalar
 
 
 def _converged(high: np.ndarray, low: np.ndarray) -> bool:
@@ -812,27 +839,61 @@ def _reach(faster: np.ndarray, cap: np.ndarray, ds: np.ndarray, window: float, r
     profile (faster at every s) gives a wider reach: the window's average lies further back and ahead."""
     m = len(ds)
     s_nodes = np.concatenate([[0.0], np.cumsum(ds)])
-    ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, np.full(m + 1, -1))
+    ph = _phases_of(s_nodes, faster, np.diff(faster) / (2.0 * ds), rest, None)
     depart = ph.start[0::2] + ph.dur[0::2]  # leaving each node (after its rest)
     arrive = ph.start[0::2]
     times = np.concatenate([depart[:-1], arrive[1:] + window])
-    filtered = (_integral_leaving_first(ph, times, m) - ph.integral(times - window)).astype(float) / window
-    lo = np.clip(np.searchsorted(s_nodes, filtered[:m], side="left") - 1, 0, m - 1)
-    hi = np.clip(np.searchsorted(s_nodes, filtered[m:], side="right") - 1, 0, m - 1)
+    lo, hi = _intervals_reached(ph, times, m, window, s_nodes)
     k = np.arange(m)
     lo, hi = np.minimum(lo, k), np.maximum(hi, k)
     windows = Windows(lo, hi, m)
     return lo, hi, windows, windows.min(cap)
 
 
-def _integral_leaving_first(ph: _Phases, times: np.ndarray, m: int) -> np.ndarray:
-    """``ph.integral(times)``, the first m of which are the times the motion leaves nodes 0..m-1: the starts of
+def _intervals_reached(ph: _Phases, times: np.ndarray, m: int, window: float, s_nodes: np.ndarray) -> tuple:
+    """The intervals the filtered motion is on at ``times`` (the first m from the left, the rest from the right).
+
+    The filtered positions are averages of two long double integrals (``_filtered``), but only the nodes they
+    fall between matter: worked out in doubles, they are within ``delta`` of the long doubles' (each double
+    rounds the integrals, at most ``scale``, by 2^-53 of them, and the average by 2^-53 of it: a few times
+    that, taken 100 times over), so only those within ``delta`` of a node are worked out again as before.
+    Long double arithmetic over 3m times (3D_Chips: 15 MB of fresh arrays a reach) is most of a reach."""
+    rounded = ph.cumulative.astype(float)
+    back, ahead = ph.rough_integral(times - window, rounded), ph.rough_integral(times[m:], rounded)
+    f = np.concatenate([rounded[1:2 * m:2], ahead])  # leaving node k: the whole phases before it
+    f -= back
+    f /= window
+    scale = max(float(np.max(np.abs(rounded))), float(np.max(np.abs(back))), float(np.max(np.abs(ahead))))
+    delta = 2.0**-46 * (4.0 * scale / window + float(np.max(np.abs(f)))) + 1e-300
+    pad = np.concatenate([[-np.inf], s_nodes, [np.inf]])
+    at = np.concatenate([np.searchsorted(s_nodes, f[:m], side="left"), np.searchsorted(s_nodes, f[m:], side="right")])
+    near = np.flatnonzero(~((pad[at] < f - delta) & (f + delta < pad[at + 1])))  # NaN counts as near
+    if len(near):
+        exact = _filtered(ph, times, m, window, near)
+        first = near < m
+        at[near] = np.where(first, np.searchsorted(s_nodes, exact, side="left"),
+                            np.searchsorted(s_nodes, exact, side="right"))
+    return np.clip(at[:m] - 1, 0, m - 1), np.clip(at[m:] - 1, 0, m - 1)
+
+
+def _filtered(ph: _Phases, times: np.ndarray, m: int, window: float, idx: np.ndarray) -> np.ndarray:
+    """The filtered positions at times[idx] as the long doubles give them (see ``_intervals_reached``)."""
+    return ((_integral_leaving_first(ph, times, m, idx) - ph.integral(times[idx] - window)).astype(float)
+            / window)
+
+
+def _integral_leaving_first(ph: _Phases, times: np.ndarray, m: int, idx: np.ndarray) -> np.ndarray:
+    """``ph.integral(times[idx])``, the first m of ``times`` the times the motion leaves nodes 0..m-1: the starts of
     phases 1, 3, ..., where no phase after one of them lasts no time at all. There the integral is the whole phases'
     before, found without a search and with nothing of the phase's own to add (that part is 0)."""
     leaving = np.arange(1, 2 * m, 2)
     if not (np.array_equal(times[:m], ph.start[leaving]) and np.all(ph.start[leaving + 1] > ph.start[leaving])):
-        return ph.integral(times)
-    return np.concatenate([ph.cumulative[leaving], ph.integral(times[m:])])
+        return ph.integral(times[idx])
+    first = idx < m
+    out = np.empty(len(idx), dtype=np.longdouble)
+    out[first] = ph.cumulative[leaving[idx[first]]]
+    out[~first] = ph.integral(times[idx[~first]])
+    return out
 
 
 def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray | None:
@@ -922,7 +983,7 @@ class _Phases:
     s0: np.ndarray
     v0: np.ndarray
     a: np.ndarray
-    owner: np.ndarray  # dwell segment a wait belongs to, -1 otherwise
+    owner: np.ndarray | None  # dwell segment a wait belongs to, -1 otherwise; None where no one asks (``_reach``)
 
     def at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         k = np.clip(search_right(self.start, t) - 1, 0, len(self.start) - 1)
@@ -935,26 +996,50 @@ class _Phases:
 
     @cached_property
     def cumulative(self) -> np.ndarray:
-        """The integral of s over every whole phase before each, as long doubles."""
+        """The integral of s over every whole phase before each, as long doubles (summed in place: one array)."""
         part = self.dur * (self.s0 + self.dur * (0.5 * self.v0 + self.dur * self.a / 6.0))
-        return np.concatenate([[0.0], np.cumsum(part.astype(np.longdouble))])
+        cum = np.empty(len(part) + 1, dtype=np.longdouble)
+        cum[0] = 0.0
+        cum[1:] = part
+        np.cumsum(cum[1:], out=cum[1:])
+        return cum
 
     def integral(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Running integral of s over [0, t] (s is s0 before 0 and its end value after the last phase), as
         long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known."""
-        cum = self.cumulative
         k, tau = self.at(t) if where is None else where
-        total = cum[k]
-        total += tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))  # widened exactly, added as long doubles
-        # the parts after the end and before 0, added only where they are not zero (adding a zero changes nothing)
+        total = self.cumulative[k]
+        total += self._within(k, tau)  # widened exactly, added as long doubles
+        for at, part in self._outside(t):
+            total[at] += part.astype(np.longdouble)
+        return total
+
+    def rough_integral(self, t: np.ndarray, rounded: np.ndarray) -> np.ndarray:
+        """``integral`` in doubles, from ``cumulative`` rounded to doubles (``rounded``): each of its two or three
+        additions rounds once more than the long doubles', by at most 2^-53 of the larger sum."""
+        k, tau = self.at(t)
+        total = rounded[k]
+        total += self._within(k, tau)
+        for at, part in self._outside(t):
+            total[at] += part
+        return total
+
+    def _within(self, k: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """The integral of s over the first tau of phase k."""
+        return tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))
+
+    def _outside(self, t: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The integral's parts after the end and before 0, (where, part), only where they are not zero (adding
+        a zero changes nothing)."""
         end_t = self.start[-1] + self.dur[-1]
         late, early = np.flatnonzero(t > end_t), np.flatnonzero(t < 0.0)
+        parts = []
         if len(late):
             s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
-            total[late] += ((t[late] - end_t) * s_end).astype(np.longdouble)
+            parts.append((late, (t[late] - end_t) * s_end))
         if len(early):
-            total[early] += (t[early] * self.s0[0]).astype(np.longdouble)
-        return total
+            parts.append((early, t[early] * self.s0[0]))
+        return parts
 
 
 def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, owner: np.ndarray, window: float,
@@ -986,18 +1071,21 @@ def _phases(law: TimeLaw) -> _Phases:
     return _phases_of(law.s, law.y, law.accel, wait, owner)
 
 
-def _phases_of(s: np.ndarray, y: np.ndarray, accel: np.ndarray, wait: np.ndarray, owner: np.ndarray) -> _Phases:
-    """Phases of a profile y at nodes s, waiting ``wait`` at each node (dwell segment ``owner`` or -1)."""
+def _phases_of(s: np.ndarray, y: np.ndarray, accel: np.ndarray, wait: np.ndarray, owner: np.ndarray | None) -> _Phases:
+    """Phases of a profile y at nodes s, waiting ``wait`` at each node (dwell segment ``owner`` or -1; None: not
+    needed)."""
     v = np.sqrt(np.maximum(y, 0.0))
     dt = 2.0 * np.diff(s) / np.maximum(v[:-1] + v[1:], 1e-300)
     n = len(s)
-    dur, s0, v0, acc, own = np.empty(2 * n - 1), np.empty(2 * n - 1), np.zeros(2 * n - 1), np.zeros(2 * n - 1), \
-        np.full(2 * n - 1, -1)
+    dur, s0, v0, acc = np.empty(2 * n - 1), np.empty(2 * n - 1), np.zeros(2 * n - 1), np.zeros(2 * n - 1)
     dur[0::2], dur[1::2] = wait, dt
     s0[0::2], s0[1::2] = s, s[:-1]
     v0[1::2] = v[:-1]
     acc[1::2] = accel
-    own[0::2] = owner
+    own = None
+    if owner is not None:
+        own = np.full(2 * n - 1, -1)
+        own[0::2] = owner
     start = np.empty(2 * n - 1)
     start[0] = 0.0
     np.cumsum(dur[:-1], out=start[1:])
@@ -1031,16 +1119,19 @@ def arc_length_at(law: TimeLaw, ph: _Phases, ts: np.ndarray) -> tuple[np.ndarray
     if len(ts) > CHUNKED:
         parts = [arc_length_at(law, ph, ts[i:i + CHUNK]) for i in range(0, len(ts), CHUNK)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    owner = ph.owner
+    assert owner is not None, "a law's phases (``_phases``)"
     if law.window <= 0:
         where = ph.at(ts)
-        return ph.s(ts, where), ph.owner[where[0]]
+        return ph.s(ts, where), owner[where[0]]
     tj = law.window
-    at0, at1 = ph.at(ts - tj), ph.at(ts)
-    s = ((ph.integral(ts, at1) - ph.integral(ts - tj, at0)) / np.longdouble(tj)).astype(float)
+    back = ts - tj
+    at0, at1 = ph.at(back), ph.at(ts)
+    s = ((ph.integral(ts, at1) - ph.integral(back, at0)) / np.longdouble(tj)).astype(float)
     k0, k1 = at0[0], at1[0]
     resting = (k0 == k1) & (ph.v0[k1] == 0.0) & (ph.a[k1] == 0.0)  # the whole window rests in one wait
     s = np.where(resting, ph.s0[k1], s)
-    seg = np.where(resting & (ph.owner[k1] >= 0), ph.owner[k1], -1)
+    seg = np.where(resting & (owner[k1] >= 0), owner[k1], -1)
     return s, seg
 
 
