@@ -424,7 +424,7 @@ class _Budgets:
     """
 
     def __init__(self, g: _Geometry, m: int, lim: PathLimits, window: float):
-        self.geo, self.amax, self.lim, self.m = g, lim.amax, lim, m
+        self.geo, self.lim, self.m = g, lim, m
         self.window = window
         self._maps: tuple[np.ndarray, tuple] | None = None  # (ds, maps(ds)): the planner asks again per tight range
 
@@ -486,7 +486,7 @@ class _Budgets:
                 continue
             moving = t > 0
             inv_t = np.where(moving, 1.0 / np.where(moving, t, 1.0), 0.0)
-            alpha = np.where(moving, self.amax[i] * inv_t, np.inf)
+            alpha = np.where(moving, self.lim.amax[i] * inv_t, np.inf)
             # each point's h c and h alpha once for both ways (speeding up's h c is slowing down's negated: the
             # same products, rounded alike)
             hc_down = [h * kt[q] * inv_t[q] for q in range(3)]
@@ -859,7 +859,7 @@ def _intervals_reached(ph: _Phases, times: np.ndarray, m: int, window: float, s_
     that, taken 100 times over), so only those within ``delta`` of a node are worked out again as before.
     Long double arithmetic over 3m times (3D_Chips: 15 MB of fresh arrays a reach) is most of a reach."""
     rounded = ph.cumulative.astype(float)
-    back, ahead = ph.rough_integral(times - window, rounded), ph.rough_integral(times[m:], rounded)
+    back, ahead = ph.integral(times - window, cumulative=rounded), ph.integral(times[m:], cumulative=rounded)
     f = np.concatenate([rounded[1:2 * m:2], ahead])  # leaving node k: the whole phases before it
     f -= back
     f /= window
@@ -1004,42 +1004,25 @@ class _Phases:
         np.cumsum(cum[1:], out=cum[1:])
         return cum
 
-    def integral(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    def integral(self, t: np.ndarray, where: tuple[np.ndarray, np.ndarray] | None = None,
+                 cumulative: np.ndarray | None = None) -> np.ndarray:
         """Running integral of s over [0, t] (s is s0 before 0 and its end value after the last phase), as
-        long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known."""
+        long doubles: the moving average subtracts two of them. ``where``: ``at(t)``, if known. ``cumulative``:
+        ``self.cumulative`` rounded to doubles, for the integral in doubles (each of its two or three additions
+        rounds once more than the long doubles', by at most 2^-53 of the larger sum)."""
         k, tau = self.at(t) if where is None else where
-        total = self.cumulative[k]
-        total += self._within(k, tau)  # widened exactly, added as long doubles
-        for at, part in self._outside(t):
-            total[at] += part.astype(np.longdouble)
-        return total
-
-    def rough_integral(self, t: np.ndarray, rounded: np.ndarray) -> np.ndarray:
-        """``integral`` in doubles, from ``cumulative`` rounded to doubles (``rounded``): each of its two or three
-        additions rounds once more than the long doubles', by at most 2^-53 of the larger sum."""
-        k, tau = self.at(t)
-        total = rounded[k]
-        total += self._within(k, tau)
-        for at, part in self._outside(t):
-            total[at] += part
-        return total
-
-    def _within(self, k: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """The integral of s over the first tau of phase k."""
-        return tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))
-
-    def _outside(self, t: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """The integral's parts after the end and before 0, (where, part), only where they are not zero (adding
-        a zero changes nothing)."""
+        total = (self.cumulative if cumulative is None else cumulative)[k]
+        # the phase's own part, widened exactly and added as long doubles (in doubles from ``cumulative``)
+        total += tau * (self.s0[k] + tau * (0.5 * self.v0[k] + tau * self.a[k] / 6.0))
+        # the parts after the end and before 0, added only where they are not zero (adding a zero changes nothing)
         end_t = self.start[-1] + self.dur[-1]
         late, early = np.flatnonzero(t > end_t), np.flatnonzero(t < 0.0)
-        parts = []
         if len(late):
             s_end = self.s0[-1] + self.dur[-1] * (self.v0[-1] + 0.5 * self.a[-1] * self.dur[-1])
-            parts.append((late, (t[late] - end_t) * s_end))
+            total[late] += ((t[late] - end_t) * s_end).astype(total.dtype)
         if len(early):
-            parts.append((early, t[early] * self.s0[0]))
-        return parts
+            total[early] += (t[early] * self.s0[0]).astype(total.dtype)
+        return total
 
 
 def _stop_waits(n: int, stop_node: np.ndarray, dwell: np.ndarray, owner: np.ndarray, window: float,

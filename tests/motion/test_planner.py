@@ -468,10 +468,10 @@ def test_the_trapezoid_law_keeps_every_budget_at_its_own_speeds_and_is_nowhere_s
             for q, y_p in ((0, y[:-1]), (1, None), (2, y[1:])):
                 pull = np.sign(a) * kt[q]
                 at = np.where(pull > 0, hi, lo) if y_p is None else y_p
-                assert np.all(t[q] * np.abs(a) + pull * at <= budgets.amax[i] * (1 + 1e-9) + 1e-9)
+                assert np.all(t[q] * np.abs(a) + pull * at <= budgets.lim.amax[i] * (1 + 1e-9) + 1e-9)
         k = budgets.geo.k
         with np.errstate(divide="ignore"):
-            own = np.min(np.where(k > 0, budgets.amax / np.where(k > 0, k, 1.0), np.inf), axis=1)
+            own = np.min(np.where(k > 0, budgets.lim.amax / np.where(k > 0, k, 1.0), np.inf), axis=1)
         iterated = timelaw._profile(np.minimum(cap, timelaw._RHO * np.min(own.reshape(3, m), axis=0)), stops, ds,
                                     budgets)[0]
         assert np.all(y >= iterated * (1 - 1e-9))
