@@ -76,6 +76,7 @@ class Editor:
         self._titles: dict[int, str] = {}
         self._toasts: dict[int, list[Any]] = {}
         self._settles = 0
+        self._settle_timer: threading.Timer | None = None
         self._page_handlers: dict[str, Callable[[Any, Any], object]] = {}
         self.server = viser_internals.guarded_server(self.guard, host=host, port=port, label="flowmc", verbose=False)
         self.gui = self.server.gui
@@ -256,7 +257,7 @@ class Editor:
             self.settle()
             return
         ticket = self._settles
-        timer = threading.Timer(SETTLE_DELAY_S, lambda: self.settle() if ticket == self._settles else None)
+        timer = self._settle_timer = threading.Timer(SETTLE_DELAY_S, lambda: self.settle() if ticket == self._settles else None)
         timer.daemon = True
         timer.start()
 
@@ -427,13 +428,20 @@ class Editor:
         return export.target
 
     def close(self) -> None:
-        """Stop the session (run queue, job runner, device session), the extensions and the server."""
+        """Let the callbacks going end (a click still rebuilding the panels) and start no more, stop the session
+        (run queue, job runner, device session), the extensions, the timers and then the server: work that
+        outlived the server would queue messages for pages that are gone."""
+        viser_internals.quiet(self.server)
         self.session.close()
         self.job_panel.close()
         if self.extensions is not None:
             self.extensions.close()
         if self.sweep_panel is not None:
             self.sweep_panel.close()
+        self.minimap.close()
+        if self._settle_timer is not None:
+            self._settle_timer.cancel()
+            self._settle_timer.join()
         self.server.stop()
 
 

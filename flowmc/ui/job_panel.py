@@ -407,10 +407,11 @@ class JobPanel:
 
     # ------------------------------------------------------------------ closing
     def close(self) -> None:
-        """Stop a running job (controlled) and the refresher."""
+        """Stop a running job (controlled) and the refresher (joined: the server stops next)."""
         self.stop()
         self._closed.set()
         self._dirty.set()
+        self._refresher.join(timeout=2.0)
 
 
 def _lamp(label: str, on: bool) -> str:

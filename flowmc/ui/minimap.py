@@ -82,6 +82,12 @@ class Minimap:
             if picture != self.html.content:
                 self.html.content = picture
 
+    def close(self) -> None:
+        """Cancel the trailing redraw (or wait for it): the editor is stopping its server."""
+        if self._trailing is not None:
+            self._trailing.cancel()
+            self._trailing.join()
+
     def _clicked(self, client: Any, data: Any) -> None:
         """Centre the view on the world point the minimap was clicked at (``data``: x, y in world units)."""
         try:

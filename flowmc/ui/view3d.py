@@ -364,6 +364,7 @@ class ToolpathView:
         self._closed.set()
         self._playing.clear()
         self._player.join(timeout=2.0)
+        viser_internals.quiet(self.server)
         self.server.stop()
 
     def __enter__(self) -> "ToolpathView":

@@ -37,6 +37,11 @@ small layers (``flowmc.ui.guard`` holds the policy; docs/security.md says why):
   client names, ``update_cb`` included), of a control that exists, is enabled and visible, to a value
   of the control's own type and range (a dropdown's options, a number's bounds); uploads are bounded.
 If a future viser moves these, ``guarded_server`` raises instead of serving unguarded.
+viser runs every callback (clicks, page events, camera moves, connects) on its thread pool, and its ``stop()``
+closes every message buffer at once while callbacks started before it go on: a callback still rebuilding the
+side panel then queues messages no page will get (viser warns "Queued a ... on a closed connection").
+``guarded_server`` counts the callbacks going (``_Callbacks``, wrapping the pool's ``submit``) so that
+``quiet`` can let them end, and start no more, before the server stops.
 """
 
 from __future__ import annotations
@@ -44,6 +49,8 @@ from __future__ import annotations
 import json
 import math
 import threading
+import weakref
+from concurrent.futures import Future
 from typing import Any, Callable
 
 import viser
@@ -55,7 +62,7 @@ from websockets.http11 import Response
 from flowmc.ui import palette_list, viser_client
 from flowmc.ui.guard import REFUSED_PAGE, Guard, Verdict
 
-__all__ = ["guarded_server", "lock_flat_camera", "fold_narrow_controls", "set_page_title", "install_page", "download",
+__all__ = ["guarded_server", "quiet", "lock_flat_camera", "fold_narrow_controls", "set_page_title", "install_page", "download",
            "run_js", "set_tips", "set_label_colors",
            "MAX_UPLOAD_BYTES", "CHANNEL_LABEL"]
 
@@ -468,11 +475,61 @@ def guarded_server(guard: Guard, **kwargs: Any) -> viser.ViserServer:
         raise RuntimeError("viser did not start its server through websockets.asyncio.server.serve: "
                            "flowmc cannot guard this viser version")
     _filter_client_messages(server)
+    _callbacks[server] = _Callbacks(server._thread_executor)
     # The served client starts with neither (viser_client); the server's state says the same to every page.
     server.scene.configure_default_lights(False)
     server.scene.configure_environment_map(None)
     threading.Thread(target=viser_client.files, name="flowmc-client-unpack", daemon=True).start()
     return server
+
+
+def quiet(server: viser.ViserServer, timeout: float = 10.0) -> None:
+    """Start no more callbacks on ``server`` (made by ``guarded_server``) and wait up to ``timeout`` seconds
+    for those started or waiting to end (a stuck one is left behind). Called before ``server.stop()``."""
+    _callbacks[server].quiet(timeout)
+
+
+class _Callbacks:
+    """The callbacks going on one server's thread pool (``pool.submit`` goes through ``submit``)."""
+
+    def __init__(self, pool: Any):
+        self._submit = pool.submit
+        self._changed = threading.Condition()
+        self._going = 0
+        self._closing = False
+        pool.submit = self.submit
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        with self._changed:
+            if self._closing:  # the server is about to stop: the callback would talk to no page
+                dropped: Future = Future()
+                dropped.set_result(None)
+                return dropped
+            self._going += 1
+        try:
+            return self._submit(self._run, fn, *args, **kwargs)
+        except BaseException:
+            self._ended()
+            raise
+
+    def _run(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            self._ended()
+
+    def _ended(self) -> None:
+        with self._changed:
+            self._going -= 1
+            self._changed.notify_all()
+
+    def quiet(self, timeout: float) -> None:
+        with self._changed:
+            self._closing = True
+            self._changed.wait_for(lambda: self._going == 0, timeout)
+
+
+_callbacks: "weakref.WeakKeyDictionary[viser.ViserServer, _Callbacks]" = weakref.WeakKeyDictionary()
 
 
 # ---------------------------------------------------------------------------------------- client messages

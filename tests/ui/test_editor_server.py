@@ -8,9 +8,11 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import urllib.error
 import urllib.request
+import warnings
 from pathlib import Path
 
 import pytest
@@ -22,7 +24,7 @@ from flowmc.ui import layout
 from flowmc.ui.app import Editor
 from flowmc.ui.examples import examples_dir
 from flowmc.ui.text import unescape_md
-from wire_client import messages_on_connect
+from wire_client import messages_on_connect, page, send_value
 
 
 @pytest.fixture
@@ -418,3 +420,44 @@ def test_a_graph_opened_in_the_editor_is_framed_before_its_port_names_are_made(t
     labels = [m["name"] for m in messages if m["type"] == "LabelMessage"]
     assert sorted(labels) == sorted(f"/canvas/titles/{b.node_id}.title" for b in ed.canvas.boxes)
     assert len(ed.canvas.boxes) == 120 and not ed.canvas.texts.detail
+
+
+def test_a_click_being_handled_when_the_editor_closes_ends_before_the_server_stops(tmp_path):
+    """A test's teardown or Ctrl+C while a click's handler is still at work (here held at its start): close waits
+    for it and its rebuild reaches the page's connection while it is open; viser would warn of every message
+    queued on a closed connection (it did in the browser tests, a different one each run)."""
+    editor = Editor(example_file(tmp_path), port=0, extensions=False)
+    inside, go, ended = threading.Event(), threading.Event(), threading.Event()
+    edit = editor.edit
+
+    def held_edit(action):
+        inside.set()
+        go.wait(10)
+        try:
+            edit(action)
+        finally:
+            ended.set()
+
+    editor.edit = held_edit
+    closing = threading.Thread(target=editor.close)
+    try:
+        with warnings.catch_warnings(record=True) as seen, page(editor) as ws:
+            warnings.simplefilter("always")
+            end = time.monotonic() + 10
+            while not editor.server.get_clients() and time.monotonic() < end:
+                time.sleep(0.02)
+            send_value(ws, editor.note_ops, "Comment")  # the Add: Comment button
+            assert inside.wait(10)
+            closing.start()
+            closing.join(timeout=1.0)
+            assert closing.is_alive()  # waiting for the click
+            go.set()
+            assert ended.wait(10)
+            closing.join(timeout=15)
+            assert not closing.is_alive()
+    finally:
+        go.set()
+        if closing.ident is None:
+            editor.close()
+    assert editor.state.selected_notes  # the click did its work: a comment, selected
+    assert not [w for w in seen if "closed connection" in str(w.message)], [str(w.message) for w in seen]

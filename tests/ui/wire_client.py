@@ -5,9 +5,10 @@ msgpack ``{"messages": [...], ...}``."""
 
 from __future__ import annotations
 
+import contextlib
 import struct
 import time
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import msgspec
 import viser
@@ -40,15 +41,27 @@ def _drain(ws: Any, quiet_s: float, timeout_s: float) -> list[dict[str, Any]]:
     return out
 
 
-def messages_on_connect(editor: Any, quiet_s: float = 1.0, timeout_s: float = 30.0,
-                        then: Callable[[], object] | None = None) -> list[dict[str, Any]]:
-    """Every message the editor sends a page that just connected, until it has been quiet for ``quiet_s``;
-    with ``then``: the messages sent after that, while and after ``then()`` runs, instead."""
+@contextlib.contextmanager
+def page(editor: Any) -> Iterator[Any]:
+    """A page connected to ``editor`` (the websocket, its camera message sent)."""
     port = editor.server.get_port()
     headers = {"Origin": f"http://127.0.0.1:{port}", "Cookie": f"{Guard.cookie_name(port)}={editor.guard.token}"}
     with connect(f"ws://127.0.0.1:{port}/", subprotocols=[f"viser-v{viser.__version__}"], additional_headers=headers,
                  open_timeout=10, max_size=None) as ws:
         ws.send(msgspec.msgpack.encode(_CAMERA))
+        yield ws
+
+
+def send_value(ws: Any, handle: Any, value: Any) -> None:
+    """What the page sends when a control is used (a button group clicked: the label)."""
+    ws.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": handle._impl.uuid, "updates": {"value": value}}))
+
+
+def messages_on_connect(editor: Any, quiet_s: float = 1.0, timeout_s: float = 30.0,
+                        then: Callable[[], object] | None = None) -> list[dict[str, Any]]:
+    """Every message the editor sends a page that just connected, until it has been quiet for ``quiet_s``;
+    with ``then``: the messages sent after that, while and after ``then()`` runs, instead."""
+    with page(editor) as ws:
         out = _drain(ws, quiet_s, timeout_s)
         if then is not None:
             then()
