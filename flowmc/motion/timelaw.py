@@ -62,7 +62,7 @@ from functools import cached_property
 import numpy as np
 
 from flowmc.errors import PlanningError
-from flowmc.motion.capped_recursion import descend
+from flowmc.motion.capped_recursion import descend, descend_again
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, search_right, window_max, window_min
@@ -594,16 +594,27 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     return low, budget
 
 
-def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budgets) -> np.ndarray:
+def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budgets, known: list | None = None) -> np.ndarray:
     """Without a jerk limit: the fastest profile each interval of which keeps its budgets at its own speeds,
     the normal terms that help counted at the smaller end's speed (``_Budgets.maps``): one backward pass for
     the largest speed^2 from which the tool can still slow down to every cap ahead, one forward pass for the
-    largest it can speed up to, each solved exactly (flowmc.motion.capped_recursion)."""
+    largest it can speed up to, each solved exactly (flowmc.motion.capped_recursion). ``known``: the node caps
+    and both passes of the last profile on this grid and these budgets (replaced by this one's), from which
+    each pass is solved again only about the nodes whose cap changed (``descend_again``)."""
     node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
     node_cap[stops] = 0.0
     down, up = budgets.maps(ds)
-    reach = descend(node_cap, *down)[::-1]
-    return descend(reach, [a[::-1] for a in up[0]], [b[::-1] for b in up[1]], guess=reach)[::-1]
+    up_back = [a[::-1] for a in up[0]], [b[::-1] for b in up[1]]
+    if known:
+        old_cap, old_reach, old_y = known
+        reach = descend_again(node_cap, old_cap, old_reach, *down)
+        y = descend_again(reach[::-1], old_reach[::-1], old_y[::-1], *up_back)[::-1]
+    else:
+        reach = descend(node_cap, *down)
+        y = descend(reach[::-1], *up_back, guess=reach[::-1])[::-1]
+    if known is not None:
+        known[:] = node_cap, reach, y
+    return y
 
 
 def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
@@ -632,9 +643,10 @@ def trapezoid_laws(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarr
     budget maps are laid out once for all the ranges a caller tries (the planner: up to three per curve)."""
     u, s, ds, speed_u, stops, geo, cap_of = _laid_out(curve, stop_u, feed_of_u, lim, jerk=False)
     budgets = _Budgets(geo, len(ds), lim, 0.0)
+    known: list = []  # the last law's caps and passes: a range made tight plans each pass again only about it
 
     def law(tight: np.ndarray | None = None) -> TimeLaw:
-        y = _greatest(cap_of(tight), stops, ds, budgets)
+        y = _greatest(cap_of(tight), stops, ds, budgets, known)
         return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, 0.0, lim.period)
     return law
 
