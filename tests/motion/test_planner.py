@@ -321,7 +321,7 @@ def test_sharp_corners_fitted_in_a_run_are_passed_faster_by_the_exact_law_than_b
     monkeypatch.setattr(timelaw, "_RHO", rho - 0.004)
     assert fast.cycle_time <= plan_smooth(path, m, tolerance=TOL).cycle_time
     monkeypatch.setattr(timelaw, "_RHO", rho)
-    monkeypatch.setattr(timelaw, "_greatest", lambda cap, stops, ds, budgets: timelaw._profile(cap, stops, ds, budgets)[0])
+    monkeypatch.setattr(timelaw, "_greatest", lambda cap, stops, ds, budgets, known: timelaw._profile(cap, stops, ds, budgets)[0])
     assert fast.cycle_time < 0.96 * plan_smooth(path, m, tolerance=TOL).cycle_time
 
 
