@@ -26,6 +26,7 @@ __all__ = ["descend", "descend_again"]
 _BLOCK = 48  # steps per block: numpy then works on rows of n / 48 values (about 4,000 on 3D_Chips' grid)
 _SETTLED = 1e-13  # relative: block inputs that fall less than this are settled (rounding of the composed maps)
 _ROUNDS = 64  # a bound only: every round lowers an input, and rounding stops it far sooner
+_GATHER = 128  # blocks ``_blocks`` lays out together (128 blocks of 9 maps: 440 kB)
 _SHORT = 1024  # a single map's chain this short runs step by step in Python: faster than two sweeps of blocks
 _REACH = 256  # nodes before a changed cap that ``descend_again`` first solves again (times 4 each time it falls short)
 _MET = 1e-12  # relative: a value solved again this close to the old one has met it (``descend``'s own rounding: 1e-13)
@@ -162,13 +163,19 @@ def _run(c_blk: np.ndarray, a_blk: np.ndarray, b_blk: np.ndarray, x_in: np.ndarr
 
 def _blocks(v: np.ndarray | list[np.ndarray], fill: float) -> np.ndarray:
     """v padded to whole blocks, as (step, block): each row one step of every block; a list of such vectors
-    (the maps of every axis) as (step, block, map), each written in place (one fresh array)."""
+    (the maps of every axis) as (step, block, map), each written in place (one fresh array), _GATHER blocks at a
+    time: every map of those blocks is written while their part of the array is in cache (a third of the time
+    of one map at a time over the whole array, each write then a cache line of its own: 3D_Chips 25 -> 8.5 ms)."""
     rows = v if isinstance(v, list) else [v]
     n = len(rows[0])
     whole, rest = divmod(n, _BLOCK)
     out = np.empty((_BLOCK, whole + (rest > 0), len(rows)))
+    for start in range(0, whole, _GATHER):
+        stop = min(start + _GATHER, whole)
+        part = out[:, start:stop]
+        for i, vi in enumerate(rows):
+            part[:, :, i] = vi[start * _BLOCK:stop * _BLOCK].reshape(stop - start, _BLOCK).T
     for i, vi in enumerate(rows):
-        out[:, :whole, i] = vi[:whole * _BLOCK].reshape(whole, _BLOCK).T
         out[:rest, whole:, i] = vi[whole * _BLOCK:, None]
     out[rest:, whole:] = fill
     return out if isinstance(v, list) else out[:, :, 0]
