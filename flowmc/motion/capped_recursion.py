@@ -77,7 +77,8 @@ def descend_again(cap: np.ndarray, old_cap: np.ndarray, old: np.ndarray, a: list
     back to the first node whose value meets the old one again, and from there on back they are the old ones.
     Each change's stretch, from _REACH nodes before it (times 4 until its first value meets the old), up to the
     node after it (its old value as the stretch's end), is solved in one ``descend`` of the stretches laid end
-    to end (no map between them: each starts from its own end value). Past half the nodes, ``descend`` itself."""
+    to end (no map between them: each starts from its own end value). Past a quarter of the nodes, ``descend``
+    itself: stretches that long save little, and a second try where the first fell short would cost more."""
     n = len(cap) - 1
     changed = np.flatnonzero(cap != old_cap)
     if not len(changed):
@@ -86,10 +87,10 @@ def descend_again(cap: np.ndarray, old_cap: np.ndarray, old: np.ndarray, a: list
     while True:
         end = np.minimum(changed + 1, n)
         lo = np.maximum(changed - reach, 0)
-        first = np.r_[True, lo[1:] > end[:-1]]  # stretches that overlap or touch are one
+        first = np.r_[True, lo[1:] > end[:-1]]  # stretches that share a node are one
         lo, end = lo[first], end[np.r_[first[1:], True]]
         size = end - lo + 1
-        if int(size.sum()) > n // 2:
+        if int(size.sum()) > n // 4:
             return descend(cap, a, b)
         nodes = np.repeat(end - size + 1, size) + _ranks(size) - 1  # lo .. end of each stretch
         last = np.cumsum(size) - 1  # each stretch's end among them
@@ -107,6 +108,7 @@ def descend_again(cap: np.ndarray, old_cap: np.ndarray, old: np.ndarray, a: list
 
 
 def _cut(v: np.ndarray, at: np.ndarray, fill: float) -> np.ndarray:
+    """v (a fresh copy) with ``fill`` at ``at``: the steps between stretches, which change nothing."""
     v[at] = fill
     return v
 
