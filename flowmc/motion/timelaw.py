@@ -86,7 +86,8 @@ _TURN_STEP_TRAPEZOID = math.radians(0.2)  # finer without a jerk limit: each int
 # the worse end's speed, and in a tight fitted turn a coarse interval holds the speed at the turn's sharpest point for
 # longer (3D_Chips 0.4 %, flowsnake 1.2 % quicker at 0.5 degrees than at 2, then 0.07 % and 0.3 % at 0.35; at 0.2
 # with each point's own budget, 3D_Chips 145.442 -> 145.376 s and 3dtest 15.114 -> 15.112 s of feed for about 20 %
-# more of 3D_Chips' planning CPU; the jerk-limited law keeps the coarser grid its filter is tuned on)
+# more of 3D_Chips' planning CPU; the jerk-limited law keeps the coarser grid its filter is tuned on; refined only where a
+# 2-degree plan nears its caps or loads an axis by its normal terms, 3dtest and spiral miss 0.90x: docs/planning.md, grid18)
 _KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
 _SWING_ROUNDS = 3
 _PLATEAU_ROUNDS = 8
