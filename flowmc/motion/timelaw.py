@@ -62,7 +62,7 @@ from functools import cached_property
 import numpy as np
 
 from flowmc.errors import PlanningError
-from flowmc.motion.capped_recursion import descend
+from flowmc.motion.capped_recursion import descend, descend_again
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
 from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, search_right, window_max, window_min
@@ -86,7 +86,8 @@ _TURN_STEP_TRAPEZOID = math.radians(0.2)  # finer without a jerk limit: each int
 # the worse end's speed, and in a tight fitted turn a coarse interval holds the speed at the turn's sharpest point for
 # longer (3D_Chips 0.4 %, flowsnake 1.2 % quicker at 0.5 degrees than at 2, then 0.07 % and 0.3 % at 0.35; at 0.2
 # with each point's own budget, 3D_Chips 145.442 -> 145.376 s and 3dtest 15.114 -> 15.112 s of feed for about 20 %
-# more of 3D_Chips' planning CPU; the jerk-limited law keeps the coarser grid its filter is tuned on)
+# more of 3D_Chips' planning CPU; the jerk-limited law keeps the coarser grid its filter is tuned on; refined only where a
+# 2-degree plan nears its caps or loads an axis by its normal terms, 3dtest and spiral miss 0.90x: docs/planning.md, grid18)
 _KAPPA_CHANGE = 0.25  # ... or its curvature changes by more than this share
 _SWING_ROUNDS = 3
 _PLATEAU_ROUNDS = 8
@@ -594,16 +595,27 @@ def _profile(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budget_of,
     return low, budget
 
 
-def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budgets) -> np.ndarray:
+def _greatest(cap: np.ndarray, stops: np.ndarray, ds: np.ndarray, budgets: _Budgets, known: list | None = None) -> np.ndarray:
     """Without a jerk limit: the fastest profile each interval of which keeps its budgets at its own speeds,
     the normal terms that help counted at the smaller end's speed (``_Budgets.maps``): one backward pass for
     the largest speed^2 from which the tool can still slow down to every cap ahead, one forward pass for the
-    largest it can speed up to, each solved exactly (flowmc.motion.capped_recursion)."""
+    largest it can speed up to, each solved exactly (flowmc.motion.capped_recursion). ``known``: the node caps
+    and both passes of the last profile on this grid and these budgets (replaced by this one's), from which
+    each pass is solved again only about the nodes whose cap changed (``descend_again``)."""
     node_cap = np.minimum(np.r_[cap, np.inf], np.r_[np.inf, cap])
     node_cap[stops] = 0.0
     down, up = budgets.maps(ds)
-    reach = descend(node_cap, *down)[::-1]
-    return descend(reach, [a[::-1] for a in up[0]], [b[::-1] for b in up[1]], guess=reach)[::-1]
+    up_back = [a[::-1] for a in up[0]], [b[::-1] for b in up[1]]
+    if known:
+        old_cap, old_reach, old_y = known
+        reach = descend_again(node_cap, old_cap, old_reach, *down)
+        y = descend_again(reach[::-1], old_reach[::-1], old_y[::-1], *up_back)[::-1]
+    else:
+        reach = descend(node_cap, *down)
+        y = descend(reach[::-1], *up_back, guess=reach[::-1])[::-1]
+    if known is not None:
+        known[:] = node_cap, reach, y
+    return y
 
 
 def plan_time_law(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarray, stop_segment: np.ndarray,
@@ -632,9 +644,10 @@ def trapezoid_laws(curve: PlannedCurve, stop_u: np.ndarray, stop_dwell: np.ndarr
     budget maps are laid out once for all the ranges a caller tries (the planner: up to three per curve)."""
     u, s, ds, speed_u, stops, geo, cap_of = _laid_out(curve, stop_u, feed_of_u, lim, jerk=False)
     budgets = _Budgets(geo, len(ds), lim, 0.0)
+    known: list = []  # the last law's caps and passes: a range made tight plans each pass again only about it
 
     def law(tight: np.ndarray | None = None) -> TimeLaw:
-        y = _greatest(cap_of(tight), stops, ds, budgets)
+        y = _greatest(cap_of(tight), stops, ds, budgets, known)
         return TimeLaw(u, s, y, np.diff(y) / (2.0 * ds), speed_u, stops, stop_dwell, stop_segment, 0.0, lim.period)
     return law
 
