@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from flowmc.motion.ranges import ranks
+
 __all__ = ["descend", "descend_again"]
 
 _BLOCK = 48  # steps per block: numpy then works on rows of n / 48 values (about 4,000 on 3D_Chips' grid)
@@ -68,7 +70,6 @@ def descend(cap: np.ndarray, a: list[np.ndarray], b: list[np.ndarray], guess: np
     return _then(y_blk.T.reshape(-1)[:n], end)
 
 
-
 def descend_again(cap: np.ndarray, old_cap: np.ndarray, old: np.ndarray, a: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
     """``descend(cap, a, b)`` given ``old`` = ``descend(old_cap, a, b)``: solved again only about the nodes whose cap
     changed (the time law's caps lowered about a few samples over amax: 3D_Chips 786 of 273,226 nodes).
@@ -92,7 +93,7 @@ def descend_again(cap: np.ndarray, old_cap: np.ndarray, old: np.ndarray, a: list
         size = end - lo + 1
         if int(size.sum()) > n // 4:
             return descend(cap, a, b)
-        nodes = np.repeat(end - size + 1, size) + _ranks(size) - 1  # lo .. end of each stretch
+        nodes = np.repeat(end - size + 1, size) + ranks(size) - 1  # lo .. end of each stretch
         last = np.cumsum(size) - 1  # each stretch's end among them
         c = cap[nodes]
         c[last] = np.where(end < n, old[end], cap[n])
@@ -112,10 +113,6 @@ def _cut(v: np.ndarray, at: np.ndarray, fill: float) -> np.ndarray:
     v[at] = fill
     return v
 
-
-def _ranks(size: np.ndarray) -> np.ndarray:
-    """1..r for each r in ``size``, concatenated."""
-    return np.arange(int(size.sum())) - np.repeat(np.cumsum(size) - size, size) + 1
 
 def _chosen(a_blk: np.ndarray, b_blk: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """At each step the least of the axes' maps at the value after it, ``x`` (step, block) (step 1's binding

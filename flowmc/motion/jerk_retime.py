@@ -36,8 +36,9 @@ import numpy as np
 
 from flowmc.motion.curve import PlannedCurve
 from flowmc.motion.limits import PathLimits
+from flowmc.motion.ranges import ranks
 from flowmc.motion.sample_clock import sample_times
-from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, _ranks, arc_length_at, frame, speed_at
+from flowmc.motion.timelaw import TimeLaw, _phases, _phases_of, arc_length_at, frame, speed_at
 
 __all__ = ["Effort", "PLANNED", "retime_curvature_bound"]
 
@@ -337,7 +338,7 @@ def _retime_stretch(law, curve, lim, feed_of_u, s, v, k0, k1, period, strict=Fal
     slow = np.sqrt(np.maximum(np.minimum(np.minimum(c[:-2], c[1:-1]), c[2:]), 1e-300))
     steps = np.clip(np.ceil(8.0 * h / (period * slow)), _FINE, _FINE_MAX).astype(int)
     fj = np.repeat(np.arange(1, m - 1), steps)
-    fine_x = (_ranks(steps) - 1) / np.repeat(steps, steps)
+    fine_x = (ranks(steps) - 1) / np.repeat(steps, steps)
     fb = np.stack([0.5 * (1 - fine_x) ** 2, 0.5 * (1 + 2 * fine_x - 2 * fine_x ** 2), 0.5 * fine_x ** 2], axis=1)
     fu = np.r_[(fb * c[fj[:, None] + np.arange(-1, 2)[None, :]]).sum(axis=1), 0.5 * (c[-2] + c[-1])]
     fs = np.r_[nodes[fj] - 0.5 * h + fine_x * h, d1]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["CHUNK", "CHUNKED", "Windows", "window_min", "window_max", "moving_means", "MovingMeans", "range_medians",
-           "search_right"]
+           "search_right", "ranks"]
 
 CHUNK = 16384  # elements a long pass works out together (the curve's points, the time law's intervals) ...
 CHUNKED = 4 * CHUNK  # ... where there are more than this: every temporary then stays in cache
@@ -128,3 +128,8 @@ class MovingMeans:
         total[0] = 0.0
         np.cumsum(values[self.src], out=total[1:])
         return (total[self.end] - total[self.at]) / self.size
+
+
+def ranks(sizes: np.ndarray) -> np.ndarray:
+    """1..r for each r in ``sizes``, concatenated: the offsets of many runs laid end to end."""
+    return np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes) + 1

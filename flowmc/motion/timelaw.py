@@ -65,7 +65,7 @@ from flowmc.errors import PlanningError
 from flowmc.motion.capped_recursion import descend, descend_again
 from flowmc.motion.curve import ARC, POLY, PlannedCurve
 from flowmc.motion.limits import PathLimits
-from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, search_right, window_max, window_min
+from flowmc.motion.ranges import CHUNK, CHUNKED, Windows, ranks, search_right, window_max, window_min
 from flowmc.motion.sample_clock import sample_count, setpoint_times
 
 __all__ = ["TimeLaw", "plan_time_law", "trapezoid_laws", "plan_jerk_limited", "sample_time_law", "samples_of",
@@ -194,7 +194,7 @@ def _grid(curve: PlannedCurve, stop_u: np.ndarray, line_step: float, turn_step: 
     if len(sub):
         reps = n[sub] - 1
         k = np.repeat(sub, reps)
-        parts.append(curve.u0[k] + width[k] * _ranks(reps) / n[k])
+        parts.append(curve.u0[k] + width[k] * ranks(reps) / n[k])
     u = np.unique(np.concatenate(parts))
     # where the curve turns or its curvature changes quickly, halve the intervals until it does not; lines
     # never need it, and an interval that passed keeps passing, so each round checks only the new halves,
@@ -245,12 +245,6 @@ def _halved(ends: np.ndarray, mids: np.ndarray) -> np.ndarray:
     out[1, :, 0::2] = mids  # the first half ends at the middle
     out[0, :, 1::2] = mids  # the second starts there
     return out
-
-
-def _ranks(reps: np.ndarray) -> np.ndarray:
-    """1..r for each r in reps, concatenated."""
-    starts = np.repeat(np.cumsum(reps) - reps, reps)
-    return np.arange(int(reps.sum())) - starts + 1
 
 
 def _scan(cap_node: np.ndarray, ds: np.ndarray, budget: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
@@ -947,8 +941,8 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     big = 2.0 * float(np.max(y)) + 1.0
     idx = np.arange(len(rise))
     l_len, r_len = rise + 2 - left0, right1 - fall + 1
-    l_nodes = np.repeat(left0 - 1, l_len) + _ranks(l_len)  # left0 .. rise + 1 for each peak
-    r_nodes = np.repeat(right1 + 1, r_len) - _ranks(r_len)  # right1 down to fall
+    l_nodes = np.repeat(left0 - 1, l_len) + ranks(l_len)  # left0 .. rise + 1 for each peak
+    r_nodes = np.repeat(right1 + 1, r_len) - ranks(r_len)  # right1 down to fall
     l_key = y[l_nodes] + np.repeat(idx, l_len) * big
     r_key = y[r_nodes] + np.repeat(idx, r_len) * big
     shift = idx * big
@@ -973,7 +967,7 @@ def _flatten_peaks(y: np.ndarray, ds: np.ndarray, window: float) -> np.ndarray |
     # every node of a peak above its level is capped there: both sides and the top between them
     caps = np.full(len(y), np.inf)
     t_len = fall - rise
-    t_nodes = np.repeat(rise, t_len) + _ranks(t_len)  # rise + 1 .. fall
+    t_nodes = np.repeat(rise, t_len) + ranks(t_len)  # rise + 1 .. fall
     for nodes, length in ((l_nodes, l_len), (r_nodes, r_len), (t_nodes, t_len)):
         lv = np.repeat(level, length)
         above = y[nodes] > lv
