@@ -134,19 +134,23 @@ _PROBE = """globalThis.__flowmcWebGL = () => globalThis.__flowmcGL ??= (() => {
 # viser's server runs its connect callbacks (flowmc's page script, framing, camera lock) only once a page has reported
 # its camera, which viser's client does once its scene has mounted: the page reports what the client's first report
 # says (viser's default camera, a canvas the window's size), so that those messages come with the first ones too.
+# It reports as the socket connects even where the client has taken the worker by then (its own handler replaced
+# the page's; under load the client mounted first): a listener of its own, not the handler, sees the connection.
 _EARLY_SOCKET = """const query = new URLSearchParams(location.search), named = query.getAll("websocket");
 const socket = query.has("playbackPath") ? null : globalThis.__flowmcSocket = {
   worker: new Worker(SOCKET_URL, {type: "module"}), held: [],
   server: named.length ? named[0]
     : location.href.replace("http://", "ws://").replace("https://", "wss://").split("?")[0].replace(/\\/$/, "")};
 if (socket) {
-  socket.worker.onmessage = event => {
-    socket.held.push(event);
-    if (event.data.type === "connected" && socket.held.length === 1) socket.worker.postMessage({type: "send", message: {
+  socket.worker.onmessage = event => socket.held.push(event);
+  socket.worker.addEventListener("message", function report(event) {
+    if (event.data.type !== "connected") return;
+    socket.worker.removeEventListener("message", report);
+    socket.worker.postMessage({type: "send", message: {
       type: "ViewerCameraMessage", wxyz: [-0.1759199, 0.3398511, 0.8204732, -0.4247082], position: [3, 3, 3],
       image_height: Math.floor(innerHeight * devicePixelRatio), image_width: Math.floor(innerWidth * devicePixelRatio),
       fov: 75 * Math.PI / 180, near: 0.01, far: 1000, look_at: [0, 0, 0], up_direction: [0, 0, 1]}});
-  };
+  });
   socket.worker.postMessage({type: "set_server", server: socket.server});
 }"""
 

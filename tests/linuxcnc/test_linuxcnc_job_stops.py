@@ -153,6 +153,12 @@ M2
 #: How near LinuxCNC keeps to the setpoints: the card's G64 P. A block end is the first setpoint of the
 #: next block (the lookahead planner blends the corners, so the motion passes it at about 5 mm/s).
 TOL = 0.001
+#: How near LinuxCNC rests to where its program stops (a block end, the program's end): within TOL while its
+#: queue keeps ahead of the motion (measured 3e-7 to 1.2e-4 mm). On a loaded machine its task feeds the 1 ms
+#: setpoint lines late, the queue runs dry mid-path, the machine stops there (up to 0.24 s) and LinuxCNC's
+#: planner may carry on offset by where it stopped, to the end (measured 2.45e-3 mm; 1.7e-3 mm in a CI run):
+#: the bound is the 0.01 mm the 10 mm/s feed travels in one servo period, four times the largest seen.
+REST_TOL = 0.01
 
 
 def _block_ends(runner):
@@ -165,7 +171,7 @@ def _blocks(on_tick=None, on_held=None, **options):
     motion = plan_lookahead(parse_gcode(SQUARE, "sq.ngc"), machine()).trajectory
     job = Job("linuxcnc", machine(), "program", motion, name="blocks")
     runner, held, _ticks = _run_job(job, on_held, on_tick, **options)
-    np.testing.assert_allclose(runner.log.end_position, (0.0, 3.0, 0.0), atol=TOL)
+    np.testing.assert_allclose(runner.log.end_position, (0.0, 3.0, 0.0), atol=REST_TOL)
     return runner, held
 
 
@@ -174,7 +180,7 @@ def test_single_block_holds_at_rest_at_the_end_of_every_block():
     assert [e.message for e in held] == ["single block: held at the end of segment 1 (sq.ngc:2)",
                                          "single block: held at the end of segment 2 (sq.ngc:3)"]
     for event, end in zip(held, _block_ends(runner)):
-        np.testing.assert_allclose(event.status.commanded, end, atol=TOL)
+        np.testing.assert_allclose(event.status.commanded, end, atol=REST_TOL)
         assert _rest(runner.log, event.status.commanded) >= HOLD  # at rest there until Resume
 
 
