@@ -428,9 +428,11 @@ class Editor:
         return export.target
 
     def close(self) -> None:
-        """Let the callbacks going end (a click still rebuilding the panels) and start no more, stop the session
-        (run queue, job runner, device session), the extensions, the timers and then the server: work that
-        outlived the server would queue messages for pages that are gone."""
+        """Stop the running job first (the machine comes to rest at once, not after the wait below), let the
+        callbacks going end (a click still rebuilding the panels) and start no more, then stop the session (run
+        queue, job runner, device session), the extensions, the timers and the server: work that outlived the
+        server would queue messages for pages that are gone. A Start still being handled is stopped with the rest."""
+        self.job_panel.stop()
         viser_internals.quiet(self.server)
         self.session.close()
         self.job_panel.close()

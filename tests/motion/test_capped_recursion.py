@@ -33,7 +33,7 @@ def test_descend_is_the_recursion_step_by_step(n, axes):
 def test_descend_again_after_caps_change_is_the_recursion(n, changes):
     # caps lowered (and a few raised) at a few nodes, as a tight range lowers them: the stretches solved again
     # and the old values kept elsewhere give the recursion's values for the new caps, however far a change
-    # reaches back (long uncapped stretches), and past half the nodes descend itself
+    # reaches back (long uncapped stretches), and past a quarter of the nodes descend itself
     rng = np.random.default_rng(n + changes)
     cap = np.where(rng.random(n + 1) < 0.01, rng.uniform(0.0, 1e4, n + 1), np.inf)
     cap[-1] = 0.0

@@ -461,3 +461,48 @@ def test_a_click_being_handled_when_the_editor_closes_ends_before_the_server_sto
             editor.close()
     assert editor.state.selected_notes  # the click did its work: a comment, selected
     assert not [w for w in seen if "closed connection" in str(w.message)], [str(w.message) for w in seen]
+
+
+def test_closing_the_editor_stops_a_running_job_before_it_waits_for_a_click(tmp_path):
+    """Ctrl+C on `flowmc serve` while the machine moves and a click is still being handled: the job stops at once,
+    not once the click's handler ends (close waits up to 10 s for it)."""
+    graph = tmp_path / "thesis_3axis.flowmc.json"
+    graph.write_text((Path(flowmc.__file__).resolve().parents[1] / "graphs" / "thesis_3axis.flowmc.json").read_text())
+    editor = Editor(graph, port=0, extensions=False)
+    panel = editor.job_panel
+    inside, go = threading.Event(), threading.Event()
+    edit = editor.edit
+
+    def held_edit(action):
+        inside.set()
+        go.wait(20)
+        edit(action)
+
+    editor.edit = held_edit
+    closing = threading.Thread(target=editor.close)
+    try:
+        assert panel.start()
+        end = time.monotonic() + 60
+        while (panel.runner is None or panel.runner.state != "running") and time.monotonic() < end:
+            time.sleep(0.05)
+        runner = panel.runner
+        assert runner is not None and runner.state == "running"
+        with page(editor) as ws:
+            end = time.monotonic() + 10
+            while not editor.server.get_clients() and time.monotonic() < end:
+                time.sleep(0.02)
+            send_value(ws, editor.note_ops, "Comment")
+            assert inside.wait(10)
+            closing.start()
+            end = time.monotonic() + 5
+            while not runner.finished and time.monotonic() < end:
+                time.sleep(0.02)
+            assert closing.is_alive()  # still waiting for the click
+            assert runner.finished, runner.state  # ... and the machine has stopped already
+            go.set()
+            closing.join(timeout=20)
+    finally:
+        go.set()
+        if closing.ident is None:
+            editor.close()
+        closing.join(timeout=20)
